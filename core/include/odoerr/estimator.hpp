@@ -1,0 +1,64 @@
+// odoerr core: one filter cycle = AKF predict, AKF scan update, OF step.
+// Hardware-free: the caller passes the encoder increments of the cycle and, when a scan
+// is available for this cycle, its ranges.
+#pragma once
+
+#include "odoerr/of.hpp"
+
+namespace odoerr {
+
+template <typename S>
+struct CycleResult {
+  Status predict = Status::kOk;
+  ScanStats<S> scan{};
+  bool of_updated = false;
+};
+
+template <typename ModelT, int MaxWalls = 16, int MaxWindow = 16>
+class Estimator {
+ public:
+  using Model = ModelT;
+  using S = typename Model::Scalar;
+  using Input = typename Model::Input;
+  using AkfT = Akf<Model>;
+  using OfT = ObservableFilter<Model, MaxWindow>;
+  using MapT = SegmentMap<S, MaxWalls>;
+
+  Estimator(const Model& model, const MapT& map, const LaserConfig<S>& laser,
+            const AkfConfig<S>& akf_cfg = {}, const OfConfig<S>& of_cfg = {})
+      : akf_(model, akf_cfg), of_(of_cfg), map_(map), laser_(laser) {}
+
+  void init(const typename AkfT::StateVec& x0, const typename AkfT::StateMat& p0,
+            const typename OfT::KVec& k0, const typename OfT::KMat& pk0) {
+    akf_.init(x0, p0);
+    of_.init(k0, pk0);
+    of_.begin(akf_);
+  }
+
+  /// One cycle. ranges may be nullptr (no scan this cycle).
+  CycleResult<S> cycle(const Input& u, const S* ranges) {
+    CycleResult<S> res;
+    res.predict = akf_.predict(u, of_.estimate());
+    if (res.predict != Status::kOk) {
+      of_.breakWindow(akf_);
+      return res;
+    }
+    of_.addInput(u);
+    if (ranges != nullptr) res.scan = akf_.updateScan(map_, laser_, ranges);
+    res.of_updated = of_.step(akf_);
+    return res;
+  }
+
+  const AkfT& akf() const { return akf_; }
+  const OfT& of() const { return of_; }
+  const MapT& map() const { return map_; }
+  const LaserConfig<S>& laser() const { return laser_; }
+
+ private:
+  AkfT akf_;
+  OfT of_;
+  MapT map_;
+  LaserConfig<S> laser_;
+};
+
+}  // namespace odoerr

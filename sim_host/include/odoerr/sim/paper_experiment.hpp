@@ -1,0 +1,62 @@
+// sim_host: the Monte Carlo experiment of Section 5 (both starts of the non-systematic
+// parameters), aggregated like the paper's Fig. 1 and 2, written as summary.json and a CSV.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "odoerr/sim/runner.hpp"
+
+namespace odoerr::sim {
+
+enum class DriveKind { kSync, kDiff };
+
+struct PaperOptions {
+  DriveKind drive = DriveKind::kSync;
+  int runs = 100;
+  std::uint64_t seed = 1;      ///< run r uses seed + r (the same for both starts)
+  int threads = 2;
+  int record_every = 10;       ///< cycles between CSV rows (10 = every 10 cm)
+  SimConfig sim{};
+  FilterSetup setup{};
+  /// Called from the calling thread as runs complete (done, total).
+  std::function<void(int, int)> progress;
+};
+
+/// Statistics over runs of one quantity at one record.
+struct Stat {
+  double truth = 0, mean = 0, accuracy_pct = 0, rmse = 0, sigma_mean = 0;
+};
+
+struct CaseResult {
+  NonSysStart start = NonSysStart::kSmall;
+  std::vector<double> distance_m;
+  std::vector<std::string> names;          ///< parameter names (systematic then non-systematic)
+  std::vector<std::vector<Stat>> params;   ///< [record][param]
+  std::vector<double> pos_rms_m, heading_rms_rad, pos_sigma_mean_m, heading_sigma_mean_rad;
+  std::uint64_t beams_used = 0, gated = 0, grazing = 0, no_return = 0, rejected = 0;
+  std::uint64_t of_updates = 0, of_rejected = 0, of_clamped = 0;
+};
+
+struct PaperResult {
+  DriveKind drive = DriveKind::kSync;
+  int runs = 0;
+  double wall_time_s = 0;
+  std::vector<CaseResult> cases;  ///< small, large
+};
+
+const char* toString(DriveKind d);
+
+/// Runs the experiment. Throws std::invalid_argument for bad options.
+PaperResult runPaperExperiment(const PaperOptions& opt);
+
+/// The summary.json document (shape fixed by the issue; checkpoints at 5, 10, 20, 30 m).
+std::string summaryJson(const PaperResult& r);
+/// Per-record CSV (the plot script's input).
+std::string paperCsv(const PaperResult& r);
+/// Counters of the filters over all runs (health.json).
+std::string healthJson(const PaperResult& r);
+
+}  // namespace odoerr::sim

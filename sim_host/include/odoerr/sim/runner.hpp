@@ -1,0 +1,184 @@
+// sim_host: one closed-loop drive of the paper's experiment (simulator + estimator), with a
+// trace of the estimates against the truth, and an optional odolog recording of the drive.
+#pragma once
+
+#include <cstdio>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "odoerr/estimator.hpp"
+#include "odoerr/sim/paper_sim.hpp"
+
+namespace odoerr::sim {
+
+/// Initial non-systematic estimate relative to the truth (the paper: 100x below or above).
+enum class NonSysStart { kSmall, kLarge };
+
+inline const char* toString(NonSysStart s) { return s == NonSysStart::kSmall ? "small" : "large"; }
+
+/// The filter's priors and options (docs/paper-notes.md, section (e), justifies them).
+struct FilterSetup {
+  double sigma_pose_xy = 0.001;
+  double sigma_pose_theta = 0.1 * kPi<double> / 180.0;
+  double sigma_scale = 0.2;                               ///< delta_rho, delta_R, delta_L, delta_d
+  double sigma_e_theta = 2.0 * kPi<double> / 180.0;       ///< E_theta (rad/m)
+  double nonsys_factor_small = 0.01;
+  double nonsys_factor_large = 100.0;
+  double nonsys_rel_sigma = 10.0;  ///< sigma of K0 relative to K0 (order-of-magnitude prior)
+  AkfConfig<double> akf{};
+  OfConfig<double> of{};
+};
+
+/// Layout of one trace record: systematic params, non-systematic params, their sigmas, and
+/// the pose error against the truth.
+template <typename Drive>
+struct TraceLayout {
+  static constexpr int kP = Drive::kParams;
+  static constexpr int kM = Drive::kNonSys;
+  static constexpr int kValue = 0;                 // kP + kM values
+  static constexpr int kSigma = kP + kM;           // kP + kM sigmas
+  static constexpr int kPosErr = 2 * (kP + kM);    // |p - p_true| (m)
+  static constexpr int kHeadErr = kPosErr + 1;     // |theta - theta_true| (rad)
+  static constexpr int kPosSigma = kPosErr + 2;    // sqrt(Pxx + Pyy)
+  static constexpr int kHeadSigma = kPosErr + 3;   // sqrt(Ptt)
+  static constexpr int kSize = kPosErr + 4;
+};
+
+struct Trace {
+  std::vector<double> distance_m;  ///< per record
+  std::vector<double> values;      ///< records x layout size, row-major
+  int width = 0;
+  std::uint32_t beams_used = 0, gated = 0, grazing = 0, no_return = 0, rejected = 0;
+  std::uint32_t of_updates = 0, of_rejected = 0, of_clamped = 0;
+};
+
+/// Receives every simulated cycle (for odolog recording). Optional.
+template <typename Drive>
+using StepSink = std::function<void(const SimStep<Drive>&)>;
+
+template <typename S, template <typename> class DriveT>
+struct Types {
+  using SimDrive = DriveT<double>;
+  using FilterDrive = DriveT<S>;
+  using ModelT = Model<FilterDrive>;
+  using EstimatorT = Estimator<ModelT>;
+};
+
+/// Builds the estimator for a simulator: same map and laser, nominal parameters, priors.
+template <typename S, template <typename> class DriveT>
+typename Types<S, DriveT>::EstimatorT makeEstimator(const PaperSim<DriveT<double>>& sim,
+                                                    const FilterSetup& setup, NonSysStart start) {
+  using T = Types<S, DriveT>;
+  using ModelT = typename T::ModelT;
+  using Est = typename T::EstimatorT;
+  typename T::FilterDrive drive;
+  if constexpr (!std::is_same_v<DriveT<double>, SyncDrive<double>>) {
+    drive.wheelbase = S(sim.config().wheelbase_m);
+  }
+  typename Est::MapT map;
+  for (int i = 0; i < sim.map().size(); ++i) {
+    const auto& w = sim.map().wall(i);
+    (void)map.add({S(w.x1), S(w.y1), S(w.x2), S(w.y2)});
+  }
+  const auto& lc = sim.config().laser;
+  LaserConfig<S> laser{lc.beams, S(lc.angle_min), S(lc.angle_inc), S(lc.range_max),
+                       S(lc.sigma), S(lc.mount_x), S(lc.mount_y), S(lc.mount_yaw)};
+  AkfConfig<S> ac{S(setup.akf.max_incidence_rad), S(setup.akf.gate_nis)};
+  OfConfig<S> oc{setup.of.window, setup.of.pose_term, S(setup.of.min_fraction_of_initial)};
+  Est est(ModelT(drive), map, laser, ac, oc);
+
+  typename ModelT::StateVec x0;
+  const Pose<double> p0 = sim.initialEstimate();
+  x0.setZero();
+  x0[PoseIdx::kX] = S(p0.x);
+  x0[PoseIdx::kY] = S(p0.y);
+  x0[PoseIdx::kTheta] = S(p0.theta);
+  ModelT::setNominal(x0);
+  typename ModelT::StateVec sig;
+  sig.setConstant(S(setup.sigma_scale));
+  sig[PoseIdx::kX] = S(setup.sigma_pose_xy);
+  sig[PoseIdx::kY] = S(setup.sigma_pose_xy);
+  sig[PoseIdx::kTheta] = S(setup.sigma_pose_theta);
+  if constexpr (std::is_same_v<DriveT<double>, SyncDrive<double>>) {
+    sig[ModelT::kDriveOffset + SyncDrive<S>::kETheta] = S(setup.sigma_e_theta);
+  }
+  const double f = start == NonSysStart::kSmall ? setup.nonsys_factor_small : setup.nonsys_factor_large;
+  typename Est::OfT::KVec k0 = (sim.trueNonSys() * f).template cast<S>();
+  typename Est::OfT::KMat pk0 =
+      (k0 * S(setup.nonsys_rel_sigma)).cwiseAbs2().asDiagonal();
+  est.init(x0, sig.cwiseAbs2().asDiagonal(), k0, pk0);
+  return est;
+}
+
+/// Runs one closed-loop drive, recording every `record_every` cycles (and at the end).
+template <typename S, template <typename> class DriveT>
+Trace runDrive(const SimConfig& cfg, std::uint64_t seed, NonSysStart start, const FilterSetup& setup,
+               int record_every, const StepSink<DriveT<double>>& sink = nullptr) {
+  using SimDrive = DriveT<double>;
+  using L = TraceLayout<SimDrive>;
+  PaperSim<SimDrive> sim(cfg, seed);
+  auto est = makeEstimator<S, DriveT>(sim, setup, start);
+  using Est = decltype(est);
+  constexpr int kP = SimDrive::kParams;
+  constexpr int kM = SimDrive::kNonSys;
+
+  Trace tr;
+  tr.width = L::kSize;
+  auto record = [&](double dist) {
+    const auto& x = est.akf().state();
+    const auto& p = est.akf().covariance();
+    const auto& k = est.of().estimate();
+    const auto& pk = est.of().covariance();
+    tr.distance_m.push_back(dist);
+    const std::size_t base = tr.values.size();
+    tr.values.resize(base + L::kSize);
+    double* row = tr.values.data() + base;
+    for (int i = 0; i < kP; ++i) {
+      row[L::kValue + i] = double(x[Est::Model::kDriveOffset + i]);
+      row[L::kSigma + i] = std::sqrt(double(p(Est::Model::kDriveOffset + i, Est::Model::kDriveOffset + i)));
+    }
+    for (int i = 0; i < kM; ++i) {
+      row[L::kValue + kP + i] = double(k[i]);
+      row[L::kSigma + kP + i] = std::sqrt(double(pk(i, i)));
+    }
+    const Pose<double> t = sim.truth();
+    row[L::kPosErr] = std::hypot(double(x[0]) - t.x, double(x[1]) - t.y);
+    row[L::kHeadErr] = std::abs(wrapAngle(double(x[2]) - t.theta));
+    row[L::kPosSigma] = std::sqrt(double(p(0, 0) + p(1, 1)));
+    row[L::kHeadSigma] = std::sqrt(double(p(2, 2)));
+  };
+  record(0.0);
+  std::array<S, kMaxBeams> ranges{};
+  for (int k = 1; k <= cfg.steps; ++k) {
+    const auto& x = est.akf().state();
+    const Pose<double> pe{double(x[0]), double(x[1]), double(x[2])};
+    typename SimDrive::ParamVec pp;
+    for (int i = 0; i < kP; ++i) pp[i] = double(x[Est::Model::kDriveOffset + i]);
+    const SimStep<SimDrive> st = sim.step(pe, pp);
+    if (sink) sink(st);
+    typename Est::Input u;
+    if constexpr (std::is_same_v<SimDrive, SyncDrive<double>>) {
+      u.rho_e = S(st.input.rho_e);
+      u.theta_e = S(st.input.theta_e);
+    } else {
+      u.right = S(st.input.right);
+      u.left = S(st.input.left);
+    }
+    for (int i = 0; i < cfg.laser.beams; ++i) ranges[i] = S(st.ranges[i]);
+    (void)est.cycle(u, ranges.data());
+    if (k % record_every == 0 || k == cfg.steps) record(k * cfg.step_m);
+  }
+  const auto& c = est.akf().counters();
+  tr.beams_used = c.beams_used;
+  tr.gated = c.gated;
+  tr.grazing = c.grazing;
+  tr.no_return = c.no_return + c.no_map_hit;
+  tr.rejected = c.bad_innovation + c.bad_covariance + c.bad_inputs + c.bad_predictions;
+  tr.of_updates = est.of().counters().updates;
+  tr.of_rejected = est.of().counters().rejected;
+  tr.of_clamped = est.of().counters().clamped;
+  return tr;
+}
+
+}  // namespace odoerr::sim

@@ -1,0 +1,237 @@
+#include "odoerr/sim/paper_experiment.hpp"
+
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <mutex>
+#include <stdexcept>
+#include <thread>
+
+#include <nlohmann/json.hpp>
+
+namespace odoerr::sim {
+
+const char* toString(DriveKind d) { return d == DriveKind::kSync ? "sync" : "diff"; }
+
+namespace {
+
+template <template <typename> class DriveT>
+CaseResult aggregate(const std::vector<Trace>& traces, const SimConfig& cfg, NonSysStart start) {
+  using D = DriveT<double>;
+  using L = TraceLayout<D>;
+  PaperSim<D> sim(cfg, 0);
+  const auto truth_p = sim.trueParams();
+  const auto truth_k = sim.trueNonSys();
+  CaseResult c;
+  c.start = start;
+  for (int i = 0; i < L::kP; ++i) c.names.emplace_back(D::kParamNames[i]);
+  for (int i = 0; i < L::kM; ++i) c.names.emplace_back(D::kNonSysNames[i]);
+  const std::size_t records = traces.front().distance_m.size();
+  const double n = double(traces.size());
+  c.distance_m = traces.front().distance_m;
+  c.params.assign(records, std::vector<Stat>(L::kP + L::kM));
+  for (std::size_t r = 0; r < records; ++r) {
+    for (int q = 0; q < L::kP + L::kM; ++q) {
+      Stat& s = c.params[r][q];
+      s.truth = q < L::kP ? truth_p[q] : truth_k[q - L::kP];
+      double sum = 0, sum_sig = 0, sq_err = 0;
+      for (const Trace& t : traces) {
+        const double v = t.values[r * t.width + L::kValue + q];
+        sum += v;
+        sum_sig += t.values[r * t.width + L::kSigma + q];
+        sq_err += (v - s.truth) * (v - s.truth);
+      }
+      s.mean = sum / n;
+      double var = 0;
+      for (const Trace& t : traces) {
+        const double v = t.values[r * t.width + L::kValue + q];
+        var += (v - s.mean) * (v - s.mean);
+      }
+      // The paper's accuracy: population std over runs / mean * 100.
+      s.accuracy_pct = std::sqrt(var / n) / std::abs(s.mean) * 100.0;
+      s.rmse = std::sqrt(sq_err / n);
+      s.sigma_mean = sum_sig / n;
+    }
+    double p2 = 0, h2 = 0, ps = 0, hs = 0;
+    for (const Trace& t : traces) {
+      const double* row = &t.values[r * t.width];
+      p2 += row[L::kPosErr] * row[L::kPosErr];
+      h2 += row[L::kHeadErr] * row[L::kHeadErr];
+      ps += row[L::kPosSigma];
+      hs += row[L::kHeadSigma];
+    }
+    c.pos_rms_m.push_back(std::sqrt(p2 / n));
+    c.heading_rms_rad.push_back(std::sqrt(h2 / n));
+    c.pos_sigma_mean_m.push_back(ps / n);
+    c.heading_sigma_mean_rad.push_back(hs / n);
+  }
+  for (const Trace& t : traces) {
+    c.beams_used += t.beams_used;
+    c.gated += t.gated;
+    c.grazing += t.grazing;
+    c.no_return += t.no_return;
+    c.rejected += t.rejected;
+    c.of_updates += t.of_updates;
+    c.of_rejected += t.of_rejected;
+    c.of_clamped += t.of_clamped;
+  }
+  return c;
+}
+
+template <template <typename> class DriveT>
+void runAll(const PaperOptions& opt, PaperResult& res) {
+  const NonSysStart starts[2] = {NonSysStart::kSmall, NonSysStart::kLarge};
+  const int total = 2 * opt.runs;
+  std::vector<Trace> traces(static_cast<std::size_t>(total));
+  std::atomic<int> next{0};
+  std::atomic<int> done{0};
+  auto worker = [&]() {
+    for (int job = next++; job < total; job = next++) {
+      const int run = job % opt.runs;
+      const NonSysStart st = starts[job / opt.runs];
+      traces[job] = runDrive<double, DriveT>(opt.sim, opt.seed + std::uint64_t(run), st, opt.setup,
+                                             opt.record_every);
+      ++done;
+    }
+  };
+  const int nthreads = std::max(1, std::min(opt.threads, total));
+  std::vector<std::thread> pool;
+  for (int i = 0; i < nthreads; ++i) pool.emplace_back(worker);
+  int reported = -1;
+  while (true) {
+    const int d = done.load();
+    if (d != reported && opt.progress) opt.progress(d, total);
+    reported = d;
+    if (d >= total) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  for (auto& t : pool) t.join();
+  for (int s = 0; s < 2; ++s) {
+    std::vector<Trace> part(traces.begin() + s * opt.runs, traces.begin() + (s + 1) * opt.runs);
+    res.cases.push_back(aggregate<DriveT>(part, opt.sim, starts[s]));
+  }
+}
+
+}  // namespace
+
+PaperResult runPaperExperiment(const PaperOptions& opt) {
+  if (opt.runs <= 0) throw std::invalid_argument("--runs must be a positive integer");
+  if (opt.record_every <= 0) throw std::invalid_argument("record interval must be positive");
+  if (opt.sim.steps <= 0) throw std::invalid_argument("the drive needs at least one cycle");
+  PaperResult res;
+  res.drive = opt.drive;
+  res.runs = opt.runs;
+  const auto t0 = std::chrono::steady_clock::now();
+  if (opt.drive == DriveKind::kSync) {
+    runAll<SyncDrive>(opt, res);
+  } else {
+    runAll<DiffDrive>(opt, res);
+  }
+  res.wall_time_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return res;
+}
+
+namespace {
+std::size_t nearestRecord(const CaseResult& c, double d) {
+  std::size_t best = 0;
+  for (std::size_t i = 0; i < c.distance_m.size(); ++i) {
+    if (std::abs(c.distance_m[i] - d) < std::abs(c.distance_m[best] - d)) best = i;
+  }
+  return best;
+}
+}  // namespace
+
+std::string summaryJson(const PaperResult& r) {
+  using nlohmann::json;
+  json j;
+  j["drive"] = toString(r.drive);
+  j["runs"] = r.runs;
+  j["wall_time_s"] = std::round(r.wall_time_s * 1000.0) / 1000.0;
+  json cases = json::array();
+  for (const CaseResult& c : r.cases) {
+    json jc;
+    jc["init"] = toString(c.start);
+    json cps = json::array();
+    for (double d : {5.0, 10.0, 20.0, 30.0}) {
+      const std::size_t i = nearestRecord(c, d);
+      if (std::abs(c.distance_m[i] - d) > 0.5) continue;  // drive shorter than the checkpoint
+      json cp;
+      cp["distance_m"] = d;
+      json params = json::object();
+      for (std::size_t q = 0; q < c.names.size(); ++q) {
+        const Stat& s = c.params[i][q];
+        params[c.names[q]] = {{"true", s.truth},
+                              {"mean", s.mean},
+                              {"accuracy_pct", s.accuracy_pct},
+                              {"rmse", s.rmse}};
+      }
+      cp["params"] = params;
+      cp["pose_rms"] = {{"position_m", c.pos_rms_m[i]}, {"orientation_rad", c.heading_rms_rad[i]}};
+      cps.push_back(cp);
+    }
+    jc["checkpoints"] = cps;
+    cases.push_back(jc);
+  }
+  j["cases"] = cases;
+  return j.dump(2) + "\n";
+}
+
+std::string paperCsv(const PaperResult& r) {
+  std::string out = "init,distance_m";
+  const CaseResult& c0 = r.cases.front();
+  for (const std::string& n : c0.names) {
+    for (const char* suffix : {"_mean", "_accuracy_pct", "_rmse", "_sigma_mean", "_true"}) {
+      out += "," + n + suffix;
+    }
+  }
+  out += ",pos_rms_m,heading_rms_rad,pos_sigma_mean_m,heading_sigma_mean_rad\n";
+  char buf[64];
+  auto num = [&](double v) {
+    std::snprintf(buf, sizeof buf, ",%.9g", v);
+    out += buf;
+  };
+  for (const CaseResult& c : r.cases) {
+    for (std::size_t i = 0; i < c.distance_m.size(); ++i) {
+      out += toString(c.start);
+      num(c.distance_m[i]);
+      for (const Stat& s : c.params[i]) {
+        num(s.mean);
+        num(s.accuracy_pct);
+        num(s.rmse);
+        num(s.sigma_mean);
+        num(s.truth);
+      }
+      num(c.pos_rms_m[i]);
+      num(c.heading_rms_rad[i]);
+      num(c.pos_sigma_mean_m[i]);
+      num(c.heading_sigma_mean_rad[i]);
+      out += "\n";
+    }
+  }
+  return out;
+}
+
+std::string healthJson(const PaperResult& r) {
+  using nlohmann::json;
+  json j;
+  j["drive"] = toString(r.drive);
+  j["runs"] = r.runs;
+  json cases = json::array();
+  for (const CaseResult& c : r.cases) {
+    cases.push_back({{"init", toString(c.start)},
+                     {"beams_used", c.beams_used},
+                     {"beams_gated", c.gated},
+                     {"beams_grazing", c.grazing},
+                     {"beams_no_return_or_no_hit", c.no_return},
+                     {"updates_rejected", c.rejected},
+                     {"of_updates", c.of_updates},
+                     {"of_rejected", c.of_rejected},
+                     {"of_clamped_at_floor", c.of_clamped}});
+  }
+  j["cases"] = cases;
+  return j.dump(2) + "\n";
+}
+
+}  // namespace odoerr::sim

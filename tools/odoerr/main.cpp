@@ -1,0 +1,228 @@
+// odoerr: the command-line tool.
+//   odoerr paper --drive sync|diff --runs 100 --out DIR   the Monte Carlo of Section 5
+//   odoerr sim   --drive sync|diff --seed 7 --out FILE    one simulated drive as odolog v1
+#include <CLI/CLI.hpp>
+#include <cerrno>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <string>
+
+#include "odoerr/sim/odolog_writer.hpp"
+#include "odoerr/sim/paper_experiment.hpp"
+
+namespace fs = std::filesystem;
+using namespace odoerr;
+using namespace odoerr::sim;
+
+namespace {
+
+/// Writes a whole file or explains why not (naming the path).
+bool writeFile(const fs::path& path, const std::string& text, std::string* err) {
+  std::ofstream f(path, std::ios::binary);
+  if (!f) {
+    *err = "cannot open '" + path.string() + "' for writing: " + std::strerror(errno);
+    return false;
+  }
+  f << text;
+  f.close();
+  if (!f) {
+    *err = "failed to write '" + path.string() + "'";
+    return false;
+  }
+  return true;
+}
+
+/// Creates DIR and proves it writable before any long computation starts.
+bool prepareOutDir(const fs::path& dir, std::string* err) {
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec) {
+    *err = "cannot create output directory '" + dir.string() + "': " + ec.message();
+    return false;
+  }
+  const fs::path probe = dir / ".odoerr-write-test";
+  if (!writeFile(probe, "", err)) {
+    *err = "output directory '" + dir.string() + "' is not writable: " + *err;
+    return false;
+  }
+  fs::remove(probe, ec);
+  return true;
+}
+
+std::string pythonInterpreter() {
+  if (const char* p = std::getenv("ODOERR_PYTHON")) return p;
+  // Debian's interpreter carries python3-matplotlib; a pyenv/venv python3 may not.
+  if (fs::exists("/usr/bin/python3")) return "/usr/bin/python3";
+  return "python3";
+}
+
+std::string plotScript() {
+  if (const char* p = std::getenv("ODOERR_PLOT_SCRIPT")) return p;
+  return ODOERR_PLOT_SCRIPT;
+}
+
+std::string shellQuote(const std::string& s) {
+  std::string out = "'";
+  for (char c : s) {
+    if (c == '\'') {
+      out += "'\\''";
+    } else {
+      out += c;
+    }
+  }
+  return out + "'";
+}
+
+class ProgressBar {
+ public:
+  explicit ProgressBar(std::string label) : label_(std::move(label)), t0_(clock::now()) {}
+  void operator()(int done, int total) {
+    constexpr int kWidth = 40;
+    const int filled = total > 0 ? done * kWidth / total : kWidth;
+    const double secs = std::chrono::duration<double>(clock::now() - t0_).count();
+    std::fprintf(stderr, "\r%s [", label_.c_str());
+    for (int i = 0; i < kWidth; ++i) std::fputc(i < filled ? '#' : '.', stderr);
+    std::fprintf(stderr, "] %d/%d runs %.1f s", done, total, secs);
+    if (done >= total) std::fputc('\n', stderr);
+    std::fflush(stderr);
+  }
+
+ private:
+  using clock = std::chrono::steady_clock;
+  std::string label_;
+  clock::time_point t0_;
+};
+
+int runPaper(const std::string& drive, int runs, const std::string& out, std::uint64_t seed,
+             int threads, bool plots, const std::string& pose_term, int window) {
+  std::string err;
+  const fs::path dir(out);
+  if (!prepareOutDir(dir, &err)) {
+    std::fprintf(stderr, "odoerr paper: %s\n", err.c_str());
+    return 1;
+  }
+  PaperOptions opt;
+  opt.drive = drive == "sync" ? DriveKind::kSync : DriveKind::kDiff;
+  opt.runs = runs;
+  opt.seed = seed;
+  opt.threads = threads;
+  opt.setup.of.window = window;
+  opt.setup.of.pose_term = pose_term == "literal" ? PoseErrorTerm::kLiteral : PoseErrorTerm::kExpected;
+  ProgressBar bar(std::string("paper ") + drive);
+  opt.progress = [&bar](int d, int t) { bar(d, t); };
+  PaperResult res;
+  try {
+    res = runPaperExperiment(opt);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "odoerr paper: %s\n", e.what());
+    return 1;
+  }
+  const std::string csv_name = std::string("paper_") + drive + ".csv";
+  if (!writeFile(dir / "summary.json", summaryJson(res), &err) ||
+      !writeFile(dir / csv_name, paperCsv(res), &err) ||
+      !writeFile(dir / "health.json", healthJson(res), &err)) {
+    std::fprintf(stderr, "odoerr paper: %s\n", err.c_str());
+    return 1;
+  }
+  std::fprintf(stderr, "odoerr paper: %s drive, %d runs x 2 starts in %.1f s; wrote %s\n",
+               drive.c_str(), runs, res.wall_time_s, (dir / "summary.json").c_str());
+  if (plots) {
+    const std::string cmd = shellQuote(pythonInterpreter()) + " " + shellQuote(plotScript()) +
+                            " --csv " + shellQuote((dir / csv_name).string()) + " --drive " +
+                            drive + " --runs " + std::to_string(runs) + " --out " +
+                            shellQuote(dir.string());
+    const int rc = std::system(cmd.c_str());
+    if (rc != 0) {
+      std::fprintf(stderr,
+                   "odoerr paper: plotting failed (exit %d) running: %s\n"
+                   "  (the numbers are written; install python3-matplotlib or pass --no-plots)\n",
+                   rc, cmd.c_str());
+      return 1;
+    }
+  }
+  return 0;
+}
+
+template <template <typename> class DriveT>
+int writeSimLog(const std::string& out, std::uint64_t seed, int steps, const std::string& start) {
+  SimConfig cfg;
+  cfg.steps = steps;
+  FilterSetup setup;
+  PaperSim<DriveT<double>> header_sim(cfg, seed);  // same seed: same initial draw as the run
+  std::string text = odologHeader(header_sim, seed, setup.sigma_pose_xy, setup.sigma_pose_theta);
+  const int beams = cfg.laser.beams;
+  StepSink<DriveT<double>> sink = [&text, beams](const SimStep<DriveT<double>>& st) {
+    appendOdologStep(text, st, beams);
+  };
+  (void)runDrive<double, DriveT>(cfg, seed, start == "large" ? NonSysStart::kLarge : NonSysStart::kSmall,
+                                 setup, steps, sink);
+  std::string err;
+  const fs::path path(out);
+  if (path.has_parent_path()) {
+    std::error_code ec;
+    fs::create_directories(path.parent_path(), ec);
+  }
+  if (!writeFile(path, text, &err)) {
+    std::fprintf(stderr, "odoerr sim: %s\n", err.c_str());
+    return 1;
+  }
+  std::fprintf(stderr, "odoerr sim: wrote %d cycles to %s\n", steps, out.c_str());
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"odoerr: estimate the odometry error of a mobile robot during navigation"};
+  app.require_subcommand(1);
+
+  auto* paper = app.add_subcommand("paper", "Monte Carlo of the paper's experiment (Section 5)");
+  std::string drive = "sync";
+  int runs = 100;
+  std::string out;
+  std::uint64_t seed = 1;
+  int threads = 2;
+  bool no_plots = false;
+  std::string pose_term = "expected";
+  int window = 1;
+  paper->add_option("--drive", drive, "sync or diff")->check(CLI::IsMember({"sync", "diff"}));
+  paper->add_option("--runs", runs, "Monte Carlo runs per start (> 0)")
+      ->check(CLI::PositiveNumber);
+  paper->add_option("--out", out, "output directory")->required();
+  paper->add_option("--seed", seed, "seed of run 0 (run r uses seed + r)");
+  paper->add_option("--threads", threads, "worker threads")->check(CLI::Range(1, 64));
+  paper->add_option("--window", window, "OF window j in cycles (1..16)")->check(CLI::Range(1, 16));
+  paper->add_option("--pose-term", pose_term,
+                    "OF pose-error term: expected (default) or literal (the paper read literally)")
+      ->check(CLI::IsMember({"expected", "literal"}));
+  paper->add_flag("--no-plots", no_plots, "skip the PNG figures");
+
+  auto* sim = app.add_subcommand("sim", "simulate one closed-loop drive and write it as odolog v1");
+  std::string sim_drive = "sync";
+  std::string sim_out;
+  std::uint64_t sim_seed = 1;
+  int steps = 3000;
+  std::string start = "small";
+  sim->add_option("--drive", sim_drive, "sync or diff")->check(CLI::IsMember({"sync", "diff"}));
+  sim->add_option("--out", sim_out, "odolog file to write")->required();
+  sim->add_option("--seed", sim_seed, "random seed (the same seed as run r of `paper` when seed+r)");
+  sim->add_option("--steps", steps, "cycles (1 cm each)")->check(CLI::Range(1, 10000000));
+  sim->add_option("--start", start, "initial non-systematic estimate: small or large")
+      ->check(CLI::IsMember({"small", "large"}));
+
+  CLI11_PARSE(app, argc, argv);
+
+  if (paper->parsed()) {
+    return runPaper(drive, runs, out, seed, threads, !no_plots, pose_term, window);
+  }
+  if (sim->parsed()) {
+    return sim_drive == "sync" ? writeSimLog<SyncDrive>(sim_out, sim_seed, steps, start)
+                               : writeSimLog<DiffDrive>(sim_out, sim_seed, steps, start);
+  }
+  return 2;
+}
