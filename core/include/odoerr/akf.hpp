@@ -91,21 +91,9 @@ class Akf {
       ++counters_.bad_inputs;
       return Status::kBadInput;
     }
-    Eigen::Matrix<S, 3, N> d_state;
-    Eigen::Matrix<S, 3, Model::kNoise> d_noise;
-    const typename Model::NoiseVec zero = Model::NoiseVec::Zero();
-    const Increment<S> inc = model_.increment(u, x_, zero, &d_state, &d_noise);
-    IncrementJacobians<S> jp;
-    const Pose<S> next = applyIncrement(pose(), inc, &jp);
-
-    // F = I except the pose rows: d pose'/d pose (theta column) + d pose'/d inc * d inc/d x
-    Eigen::Matrix<S, 3, N> f_pose = jp.d_inc * d_state;
-    f_pose(0, PoseIdx::kX) += S(1);
-    f_pose(1, PoseIdx::kY) += S(1);
-    f_pose(2, PoseIdx::kTheta) += S(1);
-    f_pose(0, PoseIdx::kTheta) += jp.dx_dth;
-    f_pose(1, PoseIdx::kTheta) += jp.dy_dth;
-    const Eigen::Matrix<S, 3, Model::kNoise> g_pose = jp.d_inc * d_noise;
+    Eigen::Matrix<S, 3, N> f_pose;
+    Eigen::Matrix<S, 3, Model::kNoise> g_pose;
+    const Pose<S> next = transition(model_, x_, u, &f_pose, &g_pose);
     const typename Model::NoiseVec q = model_.drive.noiseVariance(u, k);
 
     // P' = F P F^T + G Q G^T, with F = [f_pose; 0 I] and G = [g_pose; 0].
@@ -127,6 +115,29 @@ class Akf {
     x_[PoseIdx::kTheta] = next.theta;
     ++counters_.predictions;
     return Status::kOk;
+  }
+
+  /// The state transition f_a of one cycle at the mean input: the next pose, and the pose
+  /// rows of F_a = d f_a / d X_a (3 x N; the parameter rows are identity) and of
+  /// G_a = d f_a / d nu (3 x kNoise; the parameter rows are zero).
+  static Pose<S> transition(const Model& model, const StateVec& x, const Input& u,
+                            Eigen::Matrix<S, 3, N>* f_pose,
+                            Eigen::Matrix<S, 3, Model::kNoise>* g_pose) {
+    Eigen::Matrix<S, 3, N> d_state;
+    Eigen::Matrix<S, 3, Model::kNoise> d_noise;
+    const typename Model::NoiseVec zero = Model::NoiseVec::Zero();
+    const Increment<S> inc = model.increment(u, x, zero, &d_state, &d_noise);
+    IncrementJacobians<S> jp;
+    const Pose<S> p{x[PoseIdx::kX], x[PoseIdx::kY], x[PoseIdx::kTheta]};
+    const Pose<S> next = applyIncrement(p, inc, &jp);
+    *f_pose = jp.d_inc * d_state;
+    (*f_pose)(0, PoseIdx::kX) += S(1);
+    (*f_pose)(1, PoseIdx::kY) += S(1);
+    (*f_pose)(2, PoseIdx::kTheta) += S(1);
+    (*f_pose)(0, PoseIdx::kTheta) += jp.dx_dth;
+    (*f_pose)(1, PoseIdx::kTheta) += jp.dy_dth;
+    *g_pose = jp.d_inc * d_noise;
+    return next;
   }
 
   /// Fuses one scan (ranges in beam order, nan = no return) against the map.
