@@ -144,7 +144,7 @@ std::size_t nearestRecord(const CaseResult& c, double d) {
 }  // namespace
 
 std::string summaryJson(const PaperResult& r) {
-  using nlohmann::json;
+  using json = nlohmann::ordered_json;
   json j;
   j["drive"] = toString(r.drive);
   j["runs"] = r.runs;
@@ -214,7 +214,7 @@ std::string paperCsv(const PaperResult& r) {
 }
 
 std::string healthJson(const PaperResult& r) {
-  using nlohmann::json;
+  using json = nlohmann::ordered_json;
   json j;
   j["drive"] = toString(r.drive);
   j["runs"] = r.runs;

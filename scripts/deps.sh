@@ -1,0 +1,37 @@
+#!/usr/bin/env bash
+# Installs the Debian packages odoerr needs, only those that are missing.
+# Usage: scripts/deps.sh            (as root, or with sudo available)
+set -euo pipefail
+
+PACKAGES=(
+  cmake make g++            # build
+  libeigen3-dev             # core
+  libcli11-dev nlohmann-json3-dev   # odoerr tool
+  libgtest-dev libbenchmark-dev     # tests, benchmarks
+  python3 python3-matplotlib python3-numpy  # figures
+)
+
+missing=()
+for p in "${PACKAGES[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
+    missing+=("$p")
+  fi
+done
+
+if [ ${#missing[@]} -eq 0 ]; then
+  exit 0
+fi
+
+echo "odoerr: installing missing Debian packages: ${missing[*]}" >&2
+SUDO=""
+if [ "$(id -u)" -ne 0 ]; then
+  if command -v sudo >/dev/null 2>&1; then
+    SUDO="sudo"
+  else
+    echo "odoerr: need root (or sudo) to install: ${missing[*]}" >&2
+    exit 1
+  fi
+fi
+export DEBIAN_FRONTEND=noninteractive
+$SUDO apt-get update -qq
+$SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"

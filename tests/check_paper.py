@@ -1,0 +1,81 @@
+#!/usr/bin/env python3
+"""Checks an `odoerr paper` output directory: summary.json has exactly the documented shape,
+and (with --acceptance) the 30 m figures lie in the ranges of the issue's acceptance."""
+import argparse
+import json
+import math
+import os
+import sys
+
+SYNC = ["delta_rho", "E_theta", "K_rho", "K_theta"]
+DIFF = ["delta_R", "delta_L", "delta_d", "K_w"]
+fails = []
+
+
+def check(cond, what):
+    print(("ok   " if cond else "FAIL ") + what)
+    if not cond:
+        fails.append(what)
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("dir")
+    ap.add_argument("--drive", required=True, choices=["sync", "diff"])
+    ap.add_argument("--runs", type=int, required=True)
+    ap.add_argument("--acceptance", action="store_true")
+    ap.add_argument("--plots", action="store_true", help="also require the PNG figures")
+    a = ap.parse_args()
+    with open(os.path.join(a.dir, "summary.json")) as f:
+        s = json.load(f)
+    names = SYNC if a.drive == "sync" else DIFF
+    check(set(s) == {"drive", "runs", "wall_time_s", "cases"}, "top-level keys")
+    check(s["drive"] == a.drive and s["runs"] == a.runs, "drive and runs")
+    check([c["init"] for c in s["cases"]] == ["small", "large"], "cases small, large")
+    for c in s["cases"]:
+        check(set(c) == {"init", "checkpoints"}, "case keys")
+        check([cp["distance_m"] for cp in c["checkpoints"]] == [5.0, 10.0, 20.0, 30.0], "checkpoints")
+        for cp in c["checkpoints"]:
+            check(set(cp) == {"distance_m", "params", "pose_rms"}, "checkpoint keys")
+            check(sorted(cp["params"]) == sorted(names), "parameter names")
+            for v in cp["params"].values():
+                check(set(v) == {"true", "mean", "accuracy_pct", "rmse"}, "parameter keys")
+                check(all(math.isfinite(x) for x in v.values()), "finite values")
+            check(set(cp["pose_rms"]) == {"position_m", "orientation_rad"}, "pose_rms keys")
+    csv = os.path.join(a.dir, f"paper_{a.drive}.csv")
+    check(os.path.getsize(csv) > 1000, "CSV written")
+    if a.plots:
+        fig = "fig1_sync.png" if a.drive == "sync" else "fig2_diff.png"
+        for png in (fig, f"pose_{a.drive}.png"):
+            p = os.path.join(a.dir, png)
+            check(os.path.exists(p) and open(p, "rb").read(8) == b"\x89PNG\r\n\x1a\n", png + " is a PNG")
+    if a.acceptance:
+        deg = math.pi / 180
+        for c in s["cases"]:
+            cp = c["checkpoints"][-1]
+            p = cp["params"]
+            pos, ori = cp["pose_rms"]["position_m"], cp["pose_rms"]["orientation_rad"]
+            tag = f"[{c['init']}] "
+            if a.drive == "sync":
+                check(abs(p["delta_rho"]["mean"] - 1.1) <= 0.003, tag + f"delta_rho mean {p['delta_rho']['mean']:.4f}")
+                check(p["delta_rho"]["accuracy_pct"] <= 0.9, tag + f"delta_rho accuracy {p['delta_rho']['accuracy_pct']:.2f} %")
+                et = p["E_theta"]["mean"] / deg
+                check(abs(et - 1.0) <= 0.08, tag + f"E_theta mean {et:.3f} deg/m")
+                check(15 <= p["E_theta"]["accuracy_pct"] <= 25, tag + f"E_theta accuracy {p['E_theta']['accuracy_pct']:.1f} %")
+                check(pos <= 0.007 and ori <= 0.12 * deg, tag + f"pose RMS {pos*100:.3f} cm {ori/deg:.3f} deg")
+            else:
+                for n, t in (("delta_R", 1.1), ("delta_L", 0.9)):
+                    check(abs(p[n]["mean"] / t - 1) <= 0.005, tag + f"{n} mean {p[n]['mean']:.4f}")
+                    check(p[n]["accuracy_pct"] <= 1.5, tag + f"{n} accuracy {p[n]['accuracy_pct']:.2f} %")
+                check(5 <= p["delta_d"]["accuracy_pct"] <= 30, tag + f"delta_d accuracy {p['delta_d']['accuracy_pct']:.1f} % (large: not separable on a circle)")
+                check(pos <= 0.006 and ori <= 0.12 * deg, tag + f"pose RMS {pos*100:.3f} cm {ori/deg:.3f} deg")
+            for n in names[-2:] if a.drive == "sync" else names[-1:]:
+                r = p[n]["mean"] / p[n]["true"]
+                check(0.1 < r < 3.0, tag + f"{n} {r:.2f}x truth (paper's OF: slow and biased, reported)")
+        check(s["wall_time_s"] < 30, f"wall time {s['wall_time_s']} s (< 30 s per drive)")
+    print(f"{len(fails)} failed" if fails else "all checks passed")
+    return 1 if fails else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
