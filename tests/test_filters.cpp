@@ -13,6 +13,12 @@ namespace {
 
 using SyncModel = Model<SyncDrive<double>>;
 
+LaserGeometry<double> geometry(const LaserConfig<double>& cfg) {
+  LaserGeometry<double> g;
+  EXPECT_TRUE(g.init(cfg));
+  return g;
+}
+
 Akf<SyncModel> makeRoomAkf(SegmentMap<double, 8>& map) {
   EXPECT_TRUE(map.add({0, 0, 10, 0}));
   EXPECT_TRUE(map.add({10, 0, 10, 10}));
@@ -48,14 +54,14 @@ TEST(AkfHygiene, BeamRejectionsAreCountedByReason) {
   auto akf = makeRoomAkf(map);
   LaserConfig<double> laser;
   // Beam 18 points along +x (angle_min = -pi, 10 deg steps): the wall x = 10 at 5 m.
-  EXPECT_EQ(akf.updateBeam(map, laser, 18, std::numeric_limits<double>::quiet_NaN()), Status::kNoReturn);
-  EXPECT_EQ(akf.updateBeam(map, laser, 18, -1.0), Status::kNoReturn);
-  EXPECT_EQ(akf.updateBeam(map, laser, 18, 25.0), Status::kNoReturn);  // beyond range_max
-  EXPECT_EQ(akf.updateBeam(map, laser, 18, 9.0), Status::kGated);      // 4 m innovation
+  EXPECT_EQ(akf.updateBeam(map, geometry(laser), 18, std::numeric_limits<double>::quiet_NaN()), Status::kNoReturn);
+  EXPECT_EQ(akf.updateBeam(map, geometry(laser), 18, -1.0), Status::kNoReturn);
+  EXPECT_EQ(akf.updateBeam(map, geometry(laser), 18, 25.0), Status::kNoReturn);  // beyond range_max
+  EXPECT_EQ(akf.updateBeam(map, geometry(laser), 18, 9.0), Status::kGated);      // 4 m innovation
   EXPECT_EQ(akf.counters().no_return, 3u);
   EXPECT_EQ(akf.counters().gated, 1u);
   double nis = -1;
-  EXPECT_EQ(akf.updateBeam(map, laser, 18, 5.02, &nis), Status::kOk);
+  EXPECT_EQ(akf.updateBeam(map, geometry(laser), 18, 5.02, &nis), Status::kOk);
   EXPECT_GT(nis, 0.0);
   EXPECT_EQ(akf.counters().beams_used, 1u);
   // From (9.5, 5) a beam at 80 deg hits the wall x = 10 first (2.9 m), at 80 deg incidence:
@@ -65,10 +71,10 @@ TEST(AkfHygiene, BeamRejectionsAreCountedByReason) {
   akf.init(x, akf.covariance());
   LaserConfig<double> oblique = laser;
   oblique.angle_min = 80.0 * kPi<double> / 180.0;
-  EXPECT_EQ(akf.updateBeam(map, oblique, 0, 2.9), Status::kGrazing);
+  EXPECT_EQ(akf.updateBeam(map, geometry(oblique), 0, 2.9), Status::kGrazing);
   EXPECT_EQ(akf.counters().grazing, 1u);
   oblique.angle_min = 60.0 * kPi<double> / 180.0;  // 60 deg incidence: used
-  EXPECT_EQ(akf.updateBeam(map, oblique, 0, 1.0), Status::kOk);
+  EXPECT_EQ(akf.updateBeam(map, geometry(oblique), 0, 1.0), Status::kOk);
 }
 
 TEST(AkfHygiene, NoMapHitOutsideTheRoom) {
@@ -78,7 +84,7 @@ TEST(AkfHygiene, NoMapHitOutsideTheRoom) {
   x[0] = 12.0;  // outside, looking away from the room along +x
   akf.init(x, akf.covariance());
   LaserConfig<double> laser;
-  EXPECT_EQ(akf.updateBeam(map, laser, 18, 3.0), Status::kNoMapHit);
+  EXPECT_EQ(akf.updateBeam(map, geometry(laser), 18, 3.0), Status::kNoMapHit);
   EXPECT_EQ(akf.counters().no_map_hit, 1u);
 }
 
@@ -94,7 +100,7 @@ TEST(AkfHygiene, UpdateWithoutPoseUncertaintyIsRejected) {
   akf.init(akf.state(), p);
   LaserConfig<double> laser;
   const auto x0 = akf.state();
-  EXPECT_EQ(akf.updateBeam(map, laser, 18, 5.01), Status::kBadInnovation);
+  EXPECT_EQ(akf.updateBeam(map, geometry(laser), 18, 5.01), Status::kBadInnovation);
   EXPECT_EQ(akf.counters().bad_innovation, 1u);
   EXPECT_EQ(akf.state(), x0);
 }

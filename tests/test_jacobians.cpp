@@ -138,6 +138,8 @@ TEST(Jacobians, RangeObservationWithMountOffset) {
   laser.mount_x = 0.12L;
   laser.mount_y = -0.05L;
   laser.mount_yaw = 0.3L;
+  LaserGeometry<LD> geom;
+  ASSERT_TRUE(geom.init(laser));
   std::mt19937_64 rng(5);
   std::uniform_real_distribution<double> u(0.5, 9.5);
   int checked = 0;
@@ -146,7 +148,7 @@ TEST(Jacobians, RangeObservationWithMountOffset) {
     for (int i = 0; i < laser.beams; ++i) {
       LD r = 0;
       Eigen::Matrix<LD, 1, 3> h;
-      if (AkfT::expectedRange(map, laser, p, i, LD(1.3), &r, &h) != Status::kOk) continue;
+      if (AkfT::expectedRange(map, geom, p, i, LD(1.3), &r, &h) != Status::kOk) continue;
       const LD eps = 1e-7L;
       for (int j = 0; j < 3; ++j) {
         Pose<LD> pp = p, pm = p;
@@ -154,8 +156,8 @@ TEST(Jacobians, RangeObservationWithMountOffset) {
         (j == 0 ? pm.x : j == 1 ? pm.y : pm.theta) -= eps;
         LD rp = 0, rm = 0;
         // Skip the few beams whose ray leaves the wall under the perturbation.
-        if (AkfT::expectedRange(map, laser, pp, i, LD(1.3), &rp, nullptr) != Status::kOk) continue;
-        if (AkfT::expectedRange(map, laser, pm, i, LD(1.3), &rm, nullptr) != Status::kOk) continue;
+        if (AkfT::expectedRange(map, geom, pp, i, LD(1.3), &rp, nullptr) != Status::kOk) continue;
+        if (AkfT::expectedRange(map, geom, pm, i, LD(1.3), &rm, nullptr) != Status::kOk) continue;
         if (std::abs(double(rp - rm)) > 1e-3) continue;  // crossed onto another wall
         const double fd = double((rp - rm) / (2 * eps));
         EXPECT_NEAR(double(h(j)), fd, 1e-6 * (1.0 + std::abs(fd))) << "beam " << i << " d/d" << j;

@@ -70,7 +70,8 @@ class Akf {
   using StateMat = typename Model::StateMat;
 
   Akf() = default;
-  explicit Akf(const Model& m, const AkfConfig<S>& cfg = {}) : model_(m), cfg_(cfg) {}
+  explicit Akf(const Model& m, const AkfConfig<S>& cfg = {})
+      : model_(m), cfg_(cfg), min_cos_incidence_(std::cos(cfg.max_incidence_rad)) {}
 
   void init(const StateVec& x0, const StateMat& p0) {
     x_ = x0;
@@ -140,17 +141,29 @@ class Akf {
     return next;
   }
 
-  /// Fuses one scan (ranges in beam order, nan = no return) against the map.
-  template <int MaxWalls>
-  ScanStats<S> updateScan(const SegmentMap<S, MaxWalls>& map, const LaserConfig<S>& laser,
-                          const S* ranges) {
+  /// Fuses one scan (ranges in beam order, nan = no return) against the map, one scalar
+  /// beam at a time. The heading's (cos, sin) is carried through the sequential updates
+  /// by exact small-angle rotations, so the loop makes no library trigonometry calls.
+  template <int MaxWalls, int MaxBeams>
+  ScanStats<S> updateScan(const SegmentMap<S, MaxWalls>& map,
+                          const LaserGeometry<S, MaxBeams>& laser, const S* ranges) {
     ScanStats<S> st;
-    for (int i = 0; i < laser.beams; ++i) {
+    S c;
+    S sn;
+    sinCos(x_[PoseIdx::kTheta], &sn, &c);
+    for (int i = 0; i < laser.beams(); ++i) {
+      const S th_before = x_[PoseIdx::kTheta];
       S nis = S(0);
-      const Status s = updateBeam(map, laser, i, ranges[i], &nis);
+      const Status s = updateBeamCS(map, laser, i, ranges[i], c, sn, &nis);
       if (s == Status::kOk) {
         ++st.used;
         st.nis_sum += nis;
+        S ds;
+        S dc;
+        sinCos(wrapAngle(x_[PoseIdx::kTheta] - th_before), &ds, &dc);
+        const S c2 = c * dc - sn * ds;
+        sn = sn * dc + c * ds;
+        c = c2;
       } else {
         ++st.skipped;
       }
@@ -159,19 +172,72 @@ class Akf {
   }
 
   /// One scalar range update of beam i. On success returns kOk and the beam's NIS.
-  template <int MaxWalls>
-  [[nodiscard]] Status updateBeam(const SegmentMap<S, MaxWalls>& map, const LaserConfig<S>& laser,
-                                  int i, S measured, S* nis_out = nullptr) {
-    if (!isFinite(measured) || !(measured > S(0)) || measured > laser.range_max) {
+  template <int MaxWalls, int MaxBeams>
+  [[nodiscard]] Status updateBeam(const SegmentMap<S, MaxWalls>& map,
+                                  const LaserGeometry<S, MaxBeams>& laser, int i, S measured,
+                                  S* nis_out = nullptr) {
+    S c;
+    S sn;
+    sinCos(x_[PoseIdx::kTheta], &sn, &c);
+    return updateBeamCS(map, laser, i, measured, c, sn, nis_out);
+  }
+
+  /// Expected range of beam i from a robot pose, with dr/d(x, y, theta); (c, sn) are the
+  /// cosine and sine of the pose's heading. kNoMapHit / kGrazing when not usable.
+  template <int MaxWalls, int MaxBeams>
+  static Status expectedRange(const SegmentMap<S, MaxWalls>& map,
+                              const LaserGeometry<S, MaxBeams>& laser, S x, S y, S c, S sn,
+                              int i, S min_cos_incidence, S* range, Eigen::Matrix<S, 1, 3>* h) {
+    const LaserConfig<S>& cfg = laser.config();
+    const S lx = x + c * cfg.mount_x - sn * cfg.mount_y;
+    const S ly = y + sn * cfg.mount_x + c * cfg.mount_y;
+    const S ux = c * laser.dirC(i) - sn * laser.dirS(i);
+    const S uy = sn * laser.dirC(i) + c * laser.dirS(i);
+    const RayHit<S> hit = map.castDir(lx, ly, ux, uy);
+    if (!hit.hit) return Status::kNoMapHit;
+    if (std::abs(hit.n_dot_u) < min_cos_incidence) return Status::kGrazing;
+    *range = hit.range;
+    if (h != nullptr) {
+      // r = (n.(a - pL)) / (n.u):  dr/dpL = -n/(n.u),  dr/dalpha = -r (n.u')/(n.u)
+      const S inv = S(1) / hit.n_dot_u;
+      const S drdx = -hit.nx * inv;
+      const S drdy = -hit.ny * inv;
+      const S n_dot_du = -hit.nx * uy + hit.ny * ux;
+      const S drda = -hit.range * n_dot_du * inv;
+      const S dlx = -sn * cfg.mount_x - c * cfg.mount_y;
+      const S dly = c * cfg.mount_x - sn * cfg.mount_y;
+      (*h) << drdx, drdy, drdx * dlx + drdy * dly + drda;
+    }
+    return Status::kOk;
+  }
+
+  /// Convenience form of expectedRange taking a pose and an incidence limit in radians.
+  template <int MaxWalls, int MaxBeams>
+  static Status expectedRange(const SegmentMap<S, MaxWalls>& map,
+                              const LaserGeometry<S, MaxBeams>& laser, const Pose<S>& p, int i,
+                              S max_incidence, S* range, Eigen::Matrix<S, 1, 3>* h) {
+    return expectedRange(map, laser, p.x, p.y, std::cos(p.theta), std::sin(p.theta), i,
+                         std::cos(max_incidence), range, h);
+  }
+
+ private:
+  template <int MaxWalls, int MaxBeams>
+  Status updateBeamCS(const SegmentMap<S, MaxWalls>& map, const LaserGeometry<S, MaxBeams>& laser,
+                      int i, S measured, S c, S sn, S* nis_out) {
+    const LaserConfig<S>& cfg = laser.config();
+    if (!isFinite(measured) || !(measured > S(0)) || measured > cfg.range_max) {
       ++counters_.no_return;
       return Status::kNoReturn;
     }
     Eigen::Matrix<S, 1, 3> h;
     S predicted = S(0);
-    const Status ps = predictBeam(map, laser, i, &predicted, &h);
+    const Status ps = expectedRange(map, laser, x_[PoseIdx::kX], x_[PoseIdx::kY], c, sn, i,
+                                    min_cos_incidence_, &predicted, &h);
+    if (ps == Status::kNoMapHit) ++counters_.no_map_hit;
+    if (ps == Status::kGrazing) ++counters_.grazing;
     if (ps != Status::kOk) return ps;
 
-    const S r = laser.sigma * laser.sigma;
+    const S r = cfg.sigma * cfg.sigma;
     // P H^T: only the pose columns of H are non-zero.
     const StateVec pht = p_.template leftCols<3>() * h.transpose();
     const S s = h * pht.template head<3>() + r;
@@ -185,61 +251,26 @@ class Akf {
       ++counters_.gated;
       return Status::kGated;
     }
-    // Check the covariance update before applying it: diag(P - pht pht^T / s) > 0.
-    const StateVec new_diag = p_.diagonal() - pht.cwiseAbs2() / s;
-    if (!(new_diag.array() > S(0)).all() || !new_diag.allFinite()) {
-      ++counters_.bad_covariance;
-      return Status::kBadCovariance;
+    // Check the covariance update before applying it: diag(P - pht pht^T / s) > 0 (a NaN
+    // fails the comparison and is rejected too).
+    const S inv_s = S(1) / s;
+    for (int j = 0; j < N; ++j) {
+      if (!(p_(j, j) - pht[j] * pht[j] * inv_s > S(0))) {
+        ++counters_.bad_covariance;
+        return Status::kBadCovariance;
+      }
     }
-    const StateVec gain = pht / s;
-    x_ += gain * nu;
+    x_ += pht * (nu * inv_s);
+    // P -= g g^T with g = P H^T / sqrt(s): the outer product is symmetric bit for bit
+    // (g_i g_j == g_j g_i in IEEE arithmetic), so no symmetrisation pass is needed.
+    const StateVec g = pht * std::sqrt(inv_s);
+    p_.noalias() -= g * g.transpose();
     x_[PoseIdx::kTheta] = wrapAngle(x_[PoseIdx::kTheta]);
-    p_.noalias() -= gain * pht.transpose();
-    symmetrise(p_);
     ++counters_.beams_used;
     if (nis_out != nullptr) *nis_out = nis;
     return Status::kOk;
   }
 
-  /// Expected range of beam i at the current state and its Jacobian wrt (x, y, theta).
-  template <int MaxWalls>
-  [[nodiscard]] Status predictBeam(const SegmentMap<S, MaxWalls>& map, const LaserConfig<S>& laser,
-                                   int i, S* range, Eigen::Matrix<S, 1, 3>* h) {
-    const Status s = expectedRange(map, laser, pose(), i, cfg_.max_incidence_rad, range, h);
-    if (s == Status::kNoMapHit) ++counters_.no_map_hit;
-    if (s == Status::kGrazing) ++counters_.grazing;
-    return s;
-  }
-
-  /// Pure function: expected range of beam i from a robot pose, with dr/d(x, y, theta).
-  template <int MaxWalls>
-  static Status expectedRange(const SegmentMap<S, MaxWalls>& map, const LaserConfig<S>& laser,
-                              const Pose<S>& p, int i, S max_incidence, S* range,
-                              Eigen::Matrix<S, 1, 3>* h) {
-    const S c = std::cos(p.theta);
-    const S sn = std::sin(p.theta);
-    const S lx = p.x + c * laser.mount_x - sn * laser.mount_y;
-    const S ly = p.y + sn * laser.mount_x + c * laser.mount_y;
-    const S alpha = p.theta + laser.mount_yaw + laser.angle_min + S(i) * laser.angle_inc;
-    const RayHit<S> hit = map.cast(lx, ly, alpha);
-    if (!hit.hit) return Status::kNoMapHit;
-    if (std::abs(hit.n_dot_u) < std::cos(max_incidence)) return Status::kGrazing;
-    *range = hit.range;
-    if (h != nullptr) {
-      // r = (n.(a - pL)) / (n.u):  dr/dpL = -n/(n.u),  dr/dalpha = -r (n.u')/(n.u)
-      const S inv = S(1) / hit.n_dot_u;
-      const S drdx = -hit.nx * inv;
-      const S drdy = -hit.ny * inv;
-      const S n_dot_du = -hit.nx * std::sin(alpha) + hit.ny * std::cos(alpha);
-      const S drda = -hit.range * n_dot_du * inv;
-      const S dlx = -sn * laser.mount_x - c * laser.mount_y;
-      const S dly = c * laser.mount_x - sn * laser.mount_y;
-      (*h) << drdx, drdy, drdx * dlx + drdy * dly + drda;
-    }
-    return Status::kOk;
-  }
-
- private:
   static void symmetrise(StateMat& p) {
     for (int r = 0; r < N; ++r) {
       for (int c = r + 1; c < N; ++c) {
@@ -255,6 +286,7 @@ class Akf {
 
   Model model_{};
   AkfConfig<S> cfg_{};
+  S min_cos_incidence_ = std::cos(AkfConfig<S>{}.max_incidence_rad);
   StateVec x_ = StateVec::Zero();
   StateMat p_ = StateMat::Identity();
   AkfCounters counters_{};

@@ -14,7 +14,7 @@ struct CycleResult {
   bool of_updated = false;
 };
 
-template <typename ModelT, int MaxWalls = 16, int MaxWindow = 16>
+template <typename ModelT, int MaxWalls = 16, int MaxWindow = 16, int MaxBeams = 64>
 class Estimator {
  public:
   using Model = ModelT;
@@ -23,8 +23,10 @@ class Estimator {
   using AkfT = Akf<Model>;
   using OfT = ObservableFilter<Model, MaxWindow>;
   using MapT = SegmentMap<S, MaxWalls>;
+  using LaserT = LaserGeometry<S, MaxBeams>;
 
-  Estimator(const Model& model, const MapT& map, const LaserConfig<S>& laser,
+  /// The laser geometry must have been initialised (LaserGeometry::init returned true).
+  Estimator(const Model& model, const MapT& map, const LaserT& laser,
             const AkfConfig<S>& akf_cfg = {}, const OfConfig<S>& of_cfg = {})
       : akf_(model, akf_cfg), of_(of_cfg), map_(map), laser_(laser) {}
 
@@ -52,13 +54,13 @@ class Estimator {
   const AkfT& akf() const { return akf_; }
   const OfT& of() const { return of_; }
   const MapT& map() const { return map_; }
-  const LaserConfig<S>& laser() const { return laser_; }
+  const LaserT& laser() const { return laser_; }
 
  private:
   AkfT akf_;
   OfT of_;
   MapT map_;
-  LaserConfig<S> laser_;
+  LaserT laser_;
 };
 
 }  // namespace odoerr

@@ -59,7 +59,8 @@ S syncObservableMeanPaperEq9(S length, S raw_rotation, S e_theta, S delta_rho, S
 ///   Sigma_D   = K_rho int_0^L u u^T ds + delta_rho^2 K_theta int_0^L V V^T du
 ///   cov(D, e) = delta_rho K_theta int_0^L v(s) s ds,     var e = K_theta L
 /// with u(s) = (cos as, sin as), v(s) = (-sin as, cos as), V(u) = int_u^L v(s) ds, a = b/L.
-/// The integrals are smooth; 5-point Gauss-Legendre is exact to ~1e-9 for |b| < 2.
+/// The integrals are smooth; 5-point Gauss-Legendre is accurate to ~1e-9 relative at
+/// |b| = 1 and 2e-7 at |b| = 2 (windows of a few cm have |b| ~ 1e-3).
 template <typename S>
 Eigen::Matrix<S, 3, 3> syncNoiseMoments(const SyncSegment<S>& seg, S k_rho, S k_theta) {
   static constexpr S kNode[5] = {S(-0.9061798459386640), S(-0.5384693101056831), S(0),
@@ -78,8 +79,9 @@ Eigen::Matrix<S, 3, 3> syncNoiseMoments(const SyncSegment<S>& seg, S k_rho, S k_
   for (int k = 0; k < 5; ++k) {
     const S s = S(0.5) * l * (S(1) + kNode[k]);
     const S w = S(0.5) * l * kWeight[k];
-    const S c = std::cos(a * s);
-    const S sn = std::sin(a * s);
+    S sn;
+    S c;
+    sinCos(a * s, &sn, &c);
     su(0, 0) += w * c * c;
     su(0, 1) += w * c * sn;
     su(1, 1) += w * sn * sn;
@@ -87,8 +89,11 @@ Eigen::Matrix<S, 3, 3> syncNoiseMoments(const SyncSegment<S>& seg, S k_rho, S k_
     const S h = S(0.5) * (l - s);
     const S mid = S(0.5) * (l + s);
     const S amp = S(2) * h * sinc(a * h);
-    const S vx = -amp * std::sin(a * mid);
-    const S vy = amp * std::cos(a * mid);
+    S sm;
+    S cm;
+    sinCos(a * mid, &sm, &cm);
+    const S vx = -amp * sm;
+    const S vy = amp * cm;
     sv(0, 0) += w * vx * vx;
     sv(0, 1) += w * vx * vy;
     sv(1, 1) += w * vy * vy;

@@ -4,6 +4,7 @@
 
 #include <cstdio>
 #include <functional>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -82,8 +83,10 @@ typename Types<S, DriveT>::EstimatorT makeEstimator(const PaperSim<DriveT<double
     (void)map.add({S(w.x1), S(w.y1), S(w.x2), S(w.y2)});
   }
   const auto& lc = sim.config().laser;
-  LaserConfig<S> laser{lc.beams, S(lc.angle_min), S(lc.angle_inc), S(lc.range_max),
-                       S(lc.sigma), S(lc.mount_x), S(lc.mount_y), S(lc.mount_yaw)};
+  const LaserConfig<S> lcs{lc.beams, S(lc.angle_min), S(lc.angle_inc), S(lc.range_max),
+                           S(lc.sigma), S(lc.mount_x), S(lc.mount_y), S(lc.mount_yaw)};
+  typename Est::LaserT laser;
+  if (!laser.init(lcs)) throw std::invalid_argument("laser set-up not usable (beams > 64 or not finite)");
   AkfConfig<S> ac{S(setup.akf.max_incidence_rad), S(setup.akf.gate_nis)};
   OfConfig<S> oc{setup.of.window, setup.of.pose_term, S(setup.of.min_fraction_of_initial)};
   Est est(ModelT(drive), map, laser, ac, oc);
