@@ -12,6 +12,8 @@
 #include <iostream>
 #include <string>
 
+#include <unistd.h>
+
 #include "odoerr/sim/odolog_writer.hpp"
 #include "odoerr/sim/paper_experiment.hpp"
 
@@ -82,6 +84,15 @@ class ProgressBar {
  public:
   explicit ProgressBar(std::string label) : label_(std::move(label)), t0_(clock::now()) {}
   void operator()(int done, int total) {
+    if (!tty_) {
+      // Logs (CI, pipes): one line per quarter instead of carriage-return redraws.
+      const int quarter = total > 0 ? done * 4 / total : 4;
+      if (quarter == last_quarter_) return;
+      last_quarter_ = quarter;
+      const double secs = std::chrono::duration<double>(clock::now() - t0_).count();
+      std::fprintf(stderr, "%s: %d/%d runs %.1f s\n", label_.c_str(), done, total, secs);
+      return;
+    }
     constexpr int kWidth = 40;
     const int filled = total > 0 ? done * kWidth / total : kWidth;
     const double secs = std::chrono::duration<double>(clock::now() - t0_).count();
@@ -96,6 +107,8 @@ class ProgressBar {
   using clock = std::chrono::steady_clock;
   std::string label_;
   clock::time_point t0_;
+  bool tty_ = isatty(fileno(stderr)) != 0;
+  int last_quarter_ = -1;
 };
 
 int runPaper(const std::string& drive, int runs, const std::string& out, std::uint64_t seed,
