@@ -10,6 +10,10 @@ PACKAGES=(
   libgtest-dev libbenchmark-dev     # tests, benchmarks
   python3 python3-matplotlib python3-numpy  # figures
 )
+# Target build and emulation (the test command): bash scripts/deps.sh --target
+if [ "${1:-}" = "--target" ]; then
+  PACKAGES+=(gcc-arm-none-eabi libnewlib-arm-none-eabi libstdc++-arm-none-eabi-dev qemu-system-arm)
+fi
 
 missing=()
 for p in "${PACKAGES[@]}"; do

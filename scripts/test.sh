@@ -1,9 +1,13 @@
 #!/usr/bin/env bash
-# Builds everything and runs all tests (unit, Monte Carlo, CLI, the paper acceptance run).
+# Builds everything and runs all tests: the host suite (unit, Monte Carlo, CLI, the paper
+# acceptance run), then the Cortex-M4F images under QEMU against the host's references.
 # Usage: scripts/test.sh
 set -euo pipefail
 cd "$(dirname "$0")/.."
-bash scripts/deps.sh
+bash scripts/deps.sh --target
 cmake --preset host
 cmake --build --preset host -j 2
 ctest --preset host
+cmake --preset cortex-m4f
+cmake --build --preset cortex-m4f -j 2
+ctest --preset cortex-m4f

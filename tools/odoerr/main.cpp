@@ -14,6 +14,7 @@
 
 #include <unistd.h>
 
+#include "odoerr/fw/tape.hpp"
 #include "odoerr/sim/odolog_writer.hpp"
 #include "odoerr/sim/paper_experiment.hpp"
 
@@ -188,6 +189,47 @@ int writeSimLog(const std::string& out, std::uint64_t seed, int steps, const std
   return 0;
 }
 
+/// Records one closed-loop drive as a core-replay tape (firmware/include/odoerr/fw/tape.hpp).
+template <template <typename> class DriveT>
+int writeTape(const std::string& out, std::uint64_t seed, int steps, int record_every) {
+  SimConfig cfg;
+  cfg.steps = steps;
+  FilterSetup setup;
+  PaperSim<DriveT<double>> sim(cfg, seed);
+  fw::TapeHeader h;
+  h.drive = PaperSim<DriveT<double>>::kSync ? 0 : 1;
+  h.cycles = static_cast<std::uint32_t>(steps);
+  h.beams = static_cast<std::uint32_t>(cfg.laser.beams);
+  h.x0 = float(sim.initialEstimate().x);
+  h.y0 = float(sim.initialEstimate().y);
+  h.theta0 = float(sim.initialEstimate().theta);
+  const typename DriveT<double>::NonSysVec k0 = sim.trueNonSys() * setup.nonsys_factor_small;
+  for (int i = 0; i < k0.size(); ++i) h.k0[i] = float(k0[i]);
+  h.record_every = static_cast<std::uint32_t>(record_every);
+  std::string bytes(fw::kTapeHeaderBytes, '\0');
+  fw::encodeHeader(h, reinterpret_cast<std::uint8_t*>(bytes.data()));
+  StepSink<DriveT<double>> sink = [&bytes, &cfg](const SimStep<DriveT<double>>& st) {
+    std::uint8_t b[4 * (2 + kMaxBeams)];
+    if constexpr (PaperSim<DriveT<double>>::kSync) {
+      fw::putF32(b, float(st.input.rho_e));
+      fw::putF32(b + 4, float(st.input.theta_e));
+    } else {
+      fw::putF32(b, float(st.input.right));
+      fw::putF32(b + 4, float(st.input.left));
+    }
+    for (int i = 0; i < cfg.laser.beams; ++i) fw::putF32(b + 8 + 4 * i, float(st.ranges[i]));
+    bytes.append(reinterpret_cast<const char*>(b), 4 * (2 + cfg.laser.beams));
+  };
+  (void)runDrive<double, DriveT>(cfg, seed, NonSysStart::kSmall, setup, steps, sink);
+  std::string err;
+  if (!writeFile(out, bytes, &err)) {
+    std::fprintf(stderr, "odoerr tape: %s\n", err.c_str());
+    return 1;
+  }
+  std::fprintf(stderr, "odoerr tape: wrote %d cycles to %s\n", steps, out.c_str());
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -228,10 +270,26 @@ int main(int argc, char** argv) {
   sim->add_option("--start", start, "initial non-systematic estimate: small or large")
       ->check(CLI::IsMember({"small", "large"}));
 
+  auto* tape = app.add_subcommand("tape", "record one closed-loop drive as a core-replay tape (firmware tests)");
+  std::string tape_drive = "diff";
+  std::string tape_out;
+  std::uint64_t tape_seed = 1;
+  int tape_steps = 3000;
+  int tape_every = 100;
+  tape->add_option("--drive", tape_drive, "sync or diff")->check(CLI::IsMember({"sync", "diff"}));
+  tape->add_option("--out", tape_out, "tape file to write")->required();
+  tape->add_option("--seed", tape_seed, "random seed");
+  tape->add_option("--steps", tape_steps, "cycles (1 cm each)")->check(CLI::Range(1, 10000000));
+  tape->add_option("--record-every", tape_every, "replay output interval (cycles)")->check(CLI::Range(1, 1000000));
+
   CLI11_PARSE(app, argc, argv);
 
   if (paper->parsed()) {
     return runPaper(drive, runs, out, seed, threads, !no_plots, pose_term, window);
+  }
+  if (tape->parsed()) {
+    return tape_drive == "sync" ? writeTape<SyncDrive>(tape_out, tape_seed, tape_steps, tape_every)
+                                : writeTape<DiffDrive>(tape_out, tape_seed, tape_steps, tape_every);
   }
   if (sim->parsed()) {
     return sim_drive == "sync" ? writeSimLog<SyncDrive>(sim_out, sim_seed, steps, start)

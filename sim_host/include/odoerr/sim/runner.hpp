@@ -4,11 +4,11 @@
 
 #include <cstdio>
 #include <functional>
-#include <stdexcept>
 #include <string>
 #include <vector>
 
 #include "odoerr/estimator.hpp"
+#include "odoerr/fw/paper_setup.hpp"
 #include "odoerr/sim/paper_sim.hpp"
 
 namespace odoerr::sim {
@@ -18,18 +18,8 @@ enum class NonSysStart { kSmall, kLarge };
 
 inline const char* toString(NonSysStart s) { return s == NonSysStart::kSmall ? "small" : "large"; }
 
-/// The filter's priors and options (docs/paper-notes.md, section (e), justifies them).
-struct FilterSetup {
-  double sigma_pose_xy = 0.001;
-  double sigma_pose_theta = 0.1 * kPi<double> / 180.0;
-  double sigma_scale = 0.2;                               ///< delta_rho, delta_R, delta_L, delta_d
-  double sigma_e_theta = 2.0 * kPi<double> / 180.0;       ///< E_theta (rad/m)
-  double nonsys_factor_small = 0.01;
-  double nonsys_factor_large = 100.0;
-  double nonsys_rel_sigma = 10.0;  ///< sigma of K0 relative to K0 (order-of-magnitude prior)
-  AkfConfig<double> akf{};
-  OfConfig<double> of{};
-};
+/// The filter's priors and options, shared with the firmware (fw/paper_setup.hpp).
+using FilterSetup = fw::FilterSetup;
 
 /// Layout of one trace record: systematic params, non-systematic params, their sigmas, and
 /// the pose error against the truth.
@@ -66,52 +56,18 @@ struct Types {
   using EstimatorT = Estimator<ModelT>;
 };
 
-/// Builds the estimator for a simulator: same map and laser, nominal parameters, priors.
+/// Builds the estimator for a simulator: the simulator's room and laser, the paper's
+/// priors, the non-systematic estimate started 100x below or above the simulated truth.
 template <typename S, template <typename> class DriveT>
 typename Types<S, DriveT>::EstimatorT makeEstimator(const PaperSim<DriveT<double>>& sim,
                                                     const FilterSetup& setup, NonSysStart start) {
-  using T = Types<S, DriveT>;
-  using ModelT = typename T::ModelT;
-  using Est = typename T::EstimatorT;
-  typename T::FilterDrive drive;
-  if constexpr (!std::is_same_v<DriveT<double>, SyncDrive<double>>) {
-    drive.wheelbase = S(sim.config().wheelbase_m);
-  }
-  typename Est::MapT map;
-  for (int i = 0; i < sim.map().size(); ++i) {
-    const auto& w = sim.map().wall(i);
-    (void)map.add({S(w.x1), S(w.y1), S(w.x2), S(w.y2)});
-  }
-  const auto& lc = sim.config().laser;
-  const LaserConfig<S> lcs{lc.beams, S(lc.angle_min), S(lc.angle_inc), S(lc.range_max),
-                           S(lc.sigma), S(lc.mount_x), S(lc.mount_y), S(lc.mount_yaw)};
-  typename Est::LaserT laser;
-  if (!laser.init(lcs)) throw std::invalid_argument("laser set-up not usable (beams > 64 or not finite)");
-  AkfConfig<S> ac{S(setup.akf.max_incidence_rad), S(setup.akf.gate_nis)};
-  OfConfig<S> oc{setup.of.window, setup.of.pose_term, S(setup.of.min_fraction_of_initial)};
-  Est est(ModelT(drive), map, laser, ac, oc);
-
-  typename ModelT::StateVec x0;
-  const Pose<double> p0 = sim.initialEstimate();
-  x0.setZero();
-  x0[PoseIdx::kX] = S(p0.x);
-  x0[PoseIdx::kY] = S(p0.y);
-  x0[PoseIdx::kTheta] = S(p0.theta);
-  ModelT::setNominal(x0);
-  typename ModelT::StateVec sig;
-  sig.setConstant(S(setup.sigma_scale));
-  sig[PoseIdx::kX] = S(setup.sigma_pose_xy);
-  sig[PoseIdx::kY] = S(setup.sigma_pose_xy);
-  sig[PoseIdx::kTheta] = S(setup.sigma_pose_theta);
-  if constexpr (std::is_same_v<DriveT<double>, SyncDrive<double>>) {
-    sig[ModelT::kDriveOffset + SyncDrive<S>::kETheta] = S(setup.sigma_e_theta);
-  }
+  FilterSetup s = setup;
+  s.laser = sim.config().laser;
+  s.room_m = sim.config().room;
+  s.wheelbase_m = sim.config().wheelbase_m;
   const double f = start == NonSysStart::kSmall ? setup.nonsys_factor_small : setup.nonsys_factor_large;
-  typename Est::OfT::KVec k0 = (sim.trueNonSys() * f).template cast<S>();
-  typename Est::OfT::KMat pk0 =
-      (k0 * S(setup.nonsys_rel_sigma)).cwiseAbs2().asDiagonal();
-  est.init(x0, sig.cwiseAbs2().asDiagonal(), k0, pk0);
-  return est;
+  const typename DriveT<S>::NonSysVec k0 = (sim.trueNonSys() * f).template cast<S>();
+  return fw::makePaperEstimator<S, DriveT>(s, sim.initialEstimate(), k0);
 }
 
 /// Runs one closed-loop drive, recording every `record_every` cycles (and at the end).

@@ -1,0 +1,60 @@
+// Cortex-M4F start-up for QEMU mps2-an386: vector table, FPU on, .data/.bss, a painted
+// stack (for the high-water mark), static constructors, main, exit via semihosting.
+#include <cstdint>
+
+#include "board.hpp"
+#include "semihosting.hpp"
+
+extern "C" {
+extern std::uint32_t _sidata, _sdata, _edata, _sbss, _ebss, _sstack, _estack;
+extern void (*__init_array_start[])();
+extern void (*__init_array_end[])();
+int odoerr_call_main();
+void Reset_Handler();
+void Fault_Handler();
+}
+
+namespace {
+constexpr std::uint32_t kStackPaint = 0xC0FFEE5Au;
+}
+
+void Fault_Handler() { odoerr::board::shExit(97); }
+
+__attribute__((section(".isr_vector"), used)) void (*const g_vectors[16])() = {
+    reinterpret_cast<void (*)()>(&_estack),
+    Reset_Handler,
+    Fault_Handler,  // NMI
+    Fault_Handler,  // HardFault
+    Fault_Handler,  // MemManage
+    Fault_Handler,  // BusFault
+    Fault_Handler,  // UsageFault
+    nullptr, nullptr, nullptr, nullptr,
+    Fault_Handler,  // SVC
+    Fault_Handler,  // DebugMon
+    nullptr,
+    Fault_Handler,  // PendSV
+    Fault_Handler,  // SysTick
+};
+
+void Reset_Handler() {
+  // Full access to CP10/CP11 (the FPU) before any floating-point instruction.
+  volatile std::uint32_t* cpacr = reinterpret_cast<volatile std::uint32_t*>(0xE000ED88u);
+  *cpacr |= (0xFu << 20);
+  __asm__ volatile("dsb\n isb" ::: "memory");
+  for (std::uint32_t *src = &_sidata, *dst = &_sdata; dst < &_edata;) *dst++ = *src++;
+  for (std::uint32_t* dst = &_sbss; dst < &_ebss;) *dst++ = 0;
+  // Paint the stack below the current frame.
+  std::uint32_t* sp;
+  __asm__ volatile("mov %0, sp" : "=r"(sp));
+  for (std::uint32_t* p = &_sstack; p < sp - 16; ++p) *p = kStackPaint;
+  for (auto* f = __init_array_start; f < __init_array_end; ++f) (*f)();
+  odoerr::board::shExit(odoerr_call_main());
+}
+
+namespace odoerr::board {
+std::uint32_t stackHighWaterBytes() {
+  const std::uint32_t* p = &_sstack;
+  while (p < &_estack && *p == kStackPaint) ++p;
+  return static_cast<std::uint32_t>(reinterpret_cast<const char*>(&_estack) - reinterpret_cast<const char*>(p));
+}
+}  // namespace odoerr::board

@@ -1,0 +1,64 @@
+// Replays a tape through the float estimator; the same code runs on the host and on the
+// Cortex-M4F. I/O goes through two callables so the board decides where bytes come from.
+#pragma once
+
+#include "odoerr/fw/paper_setup.hpp"
+#include "odoerr/fw/tape.hpp"
+
+namespace odoerr::fw {
+
+/// Read(void*, n) -> bytes read; Write(const void*, n) -> bytes written.
+/// Returns 0 on success, a non-zero code naming the failure otherwise.
+template <template <typename> class DriveT, typename Read, typename Write>
+int replayTape(const TapeHeader& h, Read&& read, Write&& write, std::uint32_t (*stack_probe)()) {
+  using S = float;
+  using Est = typename PaperTypes<S, DriveT>::EstimatorT;
+  using M = typename Est::Model;
+  constexpr int N = M::kStates;
+  constexpr int K = M::kNonSys;
+  typename DriveT<S>::NonSysVec k0;
+  for (int i = 0; i < K; ++i) k0[i] = h.k0[i];
+  FilterSetup setup;
+  Est est = makePaperEstimator<S, DriveT>(setup, Pose<double>{double(h.x0), double(h.y0), double(h.theta0)}, k0);
+
+  std::uint8_t buf[4 * (2 + 64)];
+  const std::size_t cycle_bytes = 4 * (2 + h.beams);
+  float ranges[64];
+  std::uint8_t rec[4 * (1 + 2 * N + 2 * K)];
+  auto emit = [&](std::uint32_t cycle) {
+    const auto& x = est.akf().state();
+    const auto& p = est.akf().covariance();
+    putU32(rec, cycle);
+    for (int i = 0; i < N; ++i) {
+      putF32(rec + 4 + 4 * i, x[i]);
+      putF32(rec + 4 + 4 * (N + i), std::sqrt(p(i, i)));
+    }
+    for (int i = 0; i < K; ++i) {
+      putF32(rec + 4 + 8 * N + 4 * i, est.of().estimate()[i]);
+      putF32(rec + 4 + 8 * N + 4 * (K + i), std::sqrt(est.of().covariance()(i, i)));
+    }
+    return write(rec, sizeof rec) == sizeof rec;
+  };
+  for (std::uint32_t c = 1; c <= h.cycles; ++c) {
+    if (read(buf, cycle_bytes) != cycle_bytes) return 3;  // truncated tape
+    typename DriveT<S>::Input u;
+    if constexpr (PaperTypes<S, DriveT>::kSync) {
+      u = {getF32(buf), getF32(buf + 4)};
+    } else {
+      u = {getF32(buf), getF32(buf + 4)};
+    }
+    for (std::uint32_t i = 0; i < h.beams; ++i) ranges[i] = getF32(buf + 8 + 4 * i);
+    (void)est.cycle(u, ranges);
+    if ((c % h.record_every == 0 || c == h.cycles) && !emit(c)) return 4;
+  }
+  const auto& ac = est.akf().counters();
+  std::uint8_t tail[20];
+  putU32(tail, 0xFFFFFFFFu);
+  putU32(tail + 4, ac.beams_used);
+  putU32(tail + 8, ac.no_return + ac.no_map_hit + ac.grazing + ac.gated + ac.bad_innovation + ac.bad_covariance);
+  putU32(tail + 12, est.of().counters().updates);
+  putU32(tail + 16, stack_probe != nullptr ? stack_probe() : 0u);
+  return write(tail, sizeof tail) == sizeof tail ? 0 : 4;
+}
+
+}  // namespace odoerr::fw
