@@ -27,9 +27,9 @@ def load(path, drive):
     while off + 4 <= len(data):
         (tag,) = struct.unpack_from("<I", data, off)
         if tag == 0xFFFFFFFF:
-            used, rejected, of_updates, stack = struct.unpack_from("<4I", data, off + 4)
+            used, rejected, of_updates, stack, est = struct.unpack_from("<5I", data, off + 4)
             return recs, {"beams_used": used, "beams_rejected": rejected, "of_updates": of_updates,
-                          "stack_high_water_bytes": stack}
+                          "stack_high_water_bytes": stack, "estimator_bytes": est}
         if off + width > len(data):
             break
         vals = struct.unpack_from("<I" + "f" * (2 * n + 2 * k), data, off)

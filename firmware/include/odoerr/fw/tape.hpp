@@ -9,7 +9,7 @@
 // Output of a replay ("ODOU"): one record every record_every cycles and after the last:
 //   | u32 cycle | f32 state[N] | f32 sigma[N] | f32 k[M] | f32 k_sigma[M] |
 // then a trailer | u32 0xFFFFFFFF | u32 beams_used | u32 beams_rejected | u32 of_updates |
-// u32 stack_high_water_bytes |.
+// u32 stack_high_water_bytes | u32 estimator_bytes (sizeof the AKF + OF + map + laser) |.
 #pragma once
 
 #include <cstdint>

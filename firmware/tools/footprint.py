@@ -1,0 +1,104 @@
+#!/usr/bin/env python3
+"""Writes footprint.json for a Cortex-M4F image (docs/performance.md explains the figures).
+
+- text/data/bss: arm-none-eabi-size of the image.
+- instructions_per_cycle: guest instructions counted by the odoerr_icount QEMU plugin while
+  replaying the same drive for N1 and N2 cycles; (I(N2) - I(N1)) / (N2 - N1) removes the
+  start-up and counts one full cycle (predict, 36-beam update, OF) plus the ~20
+  instructions of its semihosting read.
+- stack_bytes_max: the start-up stack paint's high-water mark after a full 30 m drive.
+- estimator_state_bytes: sizeof the estimator (AKF + OF + map + laser table), from the image.
+- host_ns_per_cycle: the host build of the same program on the same tape, best of 5.
+"""
+import argparse
+import json
+import os
+import shutil
+import struct
+import subprocess
+import sys
+import tempfile
+import time
+
+
+def run_qemu(qemu, plugin, elf, workdir, count_file):
+    cmd = qemu + ["-plugin", f"{plugin},out={count_file}", "-kernel", elf]
+    r = subprocess.run(cmd, cwd=workdir, capture_output=True, timeout=600)
+    if r.returncode != 0:
+        sys.exit(f"footprint: {' '.join(cmd)} exited {r.returncode}: {r.stderr.decode()[-500:]}")
+    return int(open(count_file).read().strip())
+
+
+def tape_with_cycles(src, dst, cycles):
+    data = bytearray(open(src, "rb").read())
+    struct.pack_into("<I", data, 12, cycles)  # header field 'cycles'
+    open(dst, "wb").write(data)
+
+
+def trailer(path):
+    data = open(path, "rb").read()
+    off = data.rfind(struct.pack("<I", 0xFFFFFFFF))
+    vals = struct.unpack_from("<5I", data, off + 4)
+    return {"stack": vals[3], "estimator": vals[4]}
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--elf", required=True)
+    ap.add_argument("--size-tool", default="arm-none-eabi-size")
+    ap.add_argument("--plugin", required=True)
+    ap.add_argument("--tape", required=True, help="host tape of the primary drive")
+    ap.add_argument("--host-replay", required=True)
+    ap.add_argument("--out", required=True)
+    ap.add_argument("--drive", default="diff")
+    ap.add_argument("qemu", nargs=argparse.REMAINDER, help="-- qemu command without -kernel")
+    a = ap.parse_args()
+    qemu = [x for x in a.qemu if x != "--"]
+    if qemu and qemu[-1] == "-kernel":
+        qemu = qemu[:-1]
+    for path in (a.elf, a.plugin, a.tape, a.host_replay):
+        if not os.path.exists(path):
+            sys.exit(f"footprint: missing {path}")
+    text, data, bss = map(int, subprocess.check_output([a.size_tool, a.elf]).decode().splitlines()[1].split()[:3])
+    cycles_total = struct.unpack_from("<I", open(a.tape, "rb").read(), 12)[0]
+    n1, n2 = 1000, 2000
+    counts = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        for n in (n1, n2, cycles_total):
+            d = os.path.join(tmp, str(n))
+            os.makedirs(d)
+            tape_with_cycles(a.tape, os.path.join(d, "tape.bin"), n)
+            counts[n] = run_qemu(qemu, a.plugin, os.path.abspath(a.elf), d, os.path.join(d, "count.txt"))
+        t = trailer(os.path.join(tmp, str(cycles_total), "out.bin"))
+        best = None
+        for _ in range(5):
+            t0 = time.perf_counter()
+            subprocess.run([a.host_replay, a.tape, os.path.join(tmp, "host.bin")], check=True)
+            dt = time.perf_counter() - t0
+            best = dt if best is None else min(best, dt)
+    ipc = (counts[n2] - counts[n1]) / (n2 - n1)
+    fp = {
+        "image": os.path.basename(a.elf),
+        "drive": a.drive,
+        "text_bytes": text,
+        "data_bytes": data,
+        "bss_bytes": bss,
+        "flash_bytes": text + data,
+        "stack_bytes_max": t["stack"],
+        "estimator_state_bytes": t["estimator"],
+        "instructions_per_cycle": round(ipc),
+        "instructions_whole_drive": counts[cycles_total],
+        "cycles_whole_drive": cycles_total,
+        "host_ns_per_cycle": round(best * 1e9 / cycles_total),
+        # 100 cycles/s at 1 m/s; one instruction ~ one clock on the M4 (FPU ops single-cycle).
+        "cpu_share_pct_at_1_m_per_s_168_MHz": round(ipc * 100 / 168e6 * 100, 2),
+    }
+    with open(a.out, "w") as f:
+        json.dump(fp, f, indent=2)
+        f.write("\n")
+    print(json.dumps(fp, indent=2))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
