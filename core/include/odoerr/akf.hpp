@@ -106,7 +106,7 @@ class Akf {
     pn.template topLeftCorner<3, 3>() =
         fp * f_pose.transpose() + g_pose * q.asDiagonal() * g_pose.transpose();
     symmetrise(pn);
-    if (!covarianceHealthy(pn)) {
+    if (!poseRowsHealthy(pn)) {
       ++counters_.bad_predictions;
       return Status::kBadCovariance;
     }
@@ -152,15 +152,15 @@ class Akf {
     S sn;
     sinCos(x_[PoseIdx::kTheta], &sn, &c);
     for (int i = 0; i < laser.beams(); ++i) {
-      const S th_before = x_[PoseIdx::kTheta];
       S nis = S(0);
-      const Status s = updateBeamCS(map, laser, i, ranges[i], c, sn, &nis);
+      S dth = S(0);
+      const Status s = updateBeamCS(map, laser, i, ranges[i], c, sn, &nis, &dth);
       if (s == Status::kOk) {
         ++st.used;
         st.nis_sum += nis;
         S ds;
         S dc;
-        sinCos(wrapAngle(x_[PoseIdx::kTheta] - th_before), &ds, &dc);
+        sinCos(dth, &ds, &dc);
         const S c2 = c * dc - sn * ds;
         sn = sn * dc + c * ds;
         c = c2;
@@ -179,7 +179,8 @@ class Akf {
     S c;
     S sn;
     sinCos(x_[PoseIdx::kTheta], &sn, &c);
-    return updateBeamCS(map, laser, i, measured, c, sn, nis_out);
+    S dth = S(0);
+    return updateBeamCS(map, laser, i, measured, c, sn, nis_out, &dth);
   }
 
   /// Expected range of beam i from a robot pose, with dr/d(x, y, theta); (c, sn) are the
@@ -223,7 +224,7 @@ class Akf {
  private:
   template <int MaxWalls, int MaxBeams>
   Status updateBeamCS(const SegmentMap<S, MaxWalls>& map, const LaserGeometry<S, MaxBeams>& laser,
-                      int i, S measured, S c, S sn, S* nis_out) {
+                      int i, S measured, S c, S sn, S* nis_out, S* dtheta_out) {
     const LaserConfig<S>& cfg = laser.config();
     if (!isFinite(measured) || !(measured > S(0)) || measured > cfg.range_max) {
       ++counters_.no_return;
@@ -239,33 +240,53 @@ class Akf {
 
     const S r = cfg.sigma * cfg.sigma;
     // P H^T: only the pose columns of H are non-zero.
-    const StateVec pht = p_.template leftCols<3>() * h.transpose();
-    const S s = h * pht.template head<3>() + r;
+    S pht[N];
+#pragma GCC unroll 16
+    for (int j = 0; j < N; ++j) {
+      pht[j] = p_(j, 0) * h(0) + p_(j, 1) * h(1) + p_(j, 2) * h(2);
+    }
+    const S s = h(0) * pht[0] + h(1) * pht[1] + h(2) * pht[2] + r;
     if (!isFinite(s) || !(s > r)) {
       ++counters_.bad_innovation;
       return Status::kBadInnovation;
     }
     const S nu = measured - predicted;
-    const S nis = nu * nu / s;
+    const S inv_s = S(1) / s;
+    const S nis = nu * nu * inv_s;
     if (!(nis <= cfg_.gate_nis)) {
       ++counters_.gated;
       return Status::kGated;
     }
     // Check the covariance update before applying it: diag(P - pht pht^T / s) > 0 (a NaN
     // fails the comparison and is rejected too).
-    const S inv_s = S(1) / s;
+#pragma GCC unroll 16
     for (int j = 0; j < N; ++j) {
       if (!(p_(j, j) - pht[j] * pht[j] * inv_s > S(0))) {
         ++counters_.bad_covariance;
         return Status::kBadCovariance;
       }
     }
-    x_ += pht * (nu * inv_s);
-    // P -= g g^T with g = P H^T / sqrt(s): the outer product is symmetric bit for bit
-    // (g_i g_j == g_j g_i in IEEE arithmetic), so no symmetrisation pass is needed.
-    const StateVec g = pht * std::sqrt(inv_s);
-    p_.noalias() -= g * g.transpose();
+    // P -= g g^T with g = P H^T / sqrt(s). Each product g_j g_k is formed once and stored
+    // in both halves, so P stays symmetric bit for bit; loops fully unrolled (N is fixed).
+    const S k_nu = nu * inv_s;
+    const S root = std::sqrt(inv_s);
+    S g[N];
+#pragma GCC unroll 16
+    for (int j = 0; j < N; ++j) {
+      x_[j] += pht[j] * k_nu;
+      g[j] = pht[j] * root;
+    }
+#pragma GCC unroll 16
+    for (int j = 0; j < N; ++j) {
+#pragma GCC unroll 16
+      for (int k = j; k < N; ++k) {
+        const S v = p_(j, k) - g[j] * g[k];
+        p_(j, k) = v;
+        p_(k, j) = v;
+      }
+    }
     x_[PoseIdx::kTheta] = wrapAngle(x_[PoseIdx::kTheta]);
+    *dtheta_out = pht[PoseIdx::kTheta] * k_nu;
     ++counters_.beams_used;
     if (nis_out != nullptr) *nis_out = nis;
     return Status::kOk;
@@ -280,8 +301,16 @@ class Akf {
       }
     }
   }
-  static bool covarianceHealthy(const StateMat& p) {
-    return p.allFinite() && (p.diagonal().array() > S(0)).all();
+  /// After a prediction only the pose rows/columns changed: they must be finite and the
+  /// diagonal positive (the parameter block is untouched by construction).
+  static bool poseRowsHealthy(const StateMat& p) {
+    for (int r = 0; r < 3; ++r) {
+      if (!(p(r, r) > S(0))) return false;
+      for (int c = 0; c < N; ++c) {
+        if (!isFinite(p(r, c))) return false;
+      }
+    }
+    return true;
   }
 
   Model model_{};

@@ -2,7 +2,7 @@
 // host simulator writes and both the host and the Cortex-M4F images replay through the
 // same float estimator. Little-endian binary:
 //
-//   header  | "ODTP" | u32 version=1 | u32 drive (0 sync, 1 diff) | u32 cycles | u32 beams |
+//   header  | "ODTP" | u32 version=1 | u32 drive (0 sync, 1 diff; bit 8: dry run) | u32 cycles | u32 beams |
 //           | f32 x0 | f32 y0 | f32 theta0 | f32 k0[2] | u32 record_every |
 //   cycle   | f32 input_a | f32 input_b | f32 range[beams]            (cycles times)
 //
@@ -26,6 +26,9 @@ struct TapeHeader {
   float x0 = 0, y0 = 0, theta0 = 0;
   float k0[2] = {0, 0};
   std::uint32_t record_every = 100;
+  /// Dry run (bit 8 of the drive word): decode the tape but skip the filter, so that the
+  /// harness's own cost can be subtracted from instruction counts.
+  bool dry = false;
 };
 
 /// Little-endian (de)serialisation byte by byte: no struct memcpy, no endian assumption.
@@ -54,7 +57,7 @@ constexpr std::size_t kTapeHeaderBytes = 4 + 4 * 4 + 4 * 5 + 4;
 inline void encodeHeader(const TapeHeader& h, std::uint8_t* out) {
   std::memcpy(out, "ODTP", 4);
   putU32(out + 4, kTapeVersion);
-  putU32(out + 8, h.drive);
+  putU32(out + 8, h.drive | (h.dry ? 0x100u : 0u));
   putU32(out + 12, h.cycles);
   putU32(out + 16, h.beams);
   putF32(out + 20, h.x0);
@@ -68,7 +71,9 @@ inline void encodeHeader(const TapeHeader& h, std::uint8_t* out) {
 /// Returns false for a wrong magic, version or an impossible field.
 inline bool decodeHeader(const std::uint8_t* in, TapeHeader* h) {
   if (std::memcmp(in, "ODTP", 4) != 0 || getU32(in + 4) != kTapeVersion) return false;
-  h->drive = getU32(in + 8);
+  const std::uint32_t drive_word = getU32(in + 8);
+  h->drive = drive_word & 0xFFu;
+  h->dry = (drive_word & 0x100u) != 0;
   h->cycles = getU32(in + 12);
   h->beams = getU32(in + 16);
   h->x0 = getF32(in + 20);
