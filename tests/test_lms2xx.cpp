@@ -465,6 +465,50 @@ TEST(Lms2xxParser, GarbageAroundTelegramsAllTelegramsFound) {
   expectBalance(p);
 }
 
+// False headers nested inside each other in front of a telegram: after the first fails its
+// CRC, the rescan meets a second one with a large LEN; the telegram behind it must still be
+// delivered as soon as it is complete, whether it was still arriving when the rescan
+// happened or had just been completed by the same byte that failed the first header.
+TEST(Lms2xxParser, NestedFalseHeadersDoNotHoldBackATelegram) {
+  const std::vector<double> rf = ranges(21, 11);
+  const Bytes f = scanFrame(rf, true);  // 52 bytes
+  ASSERT_EQ(f.size(), 52u);
+  const Bytes big = {0x02, 0x80, 0x00, 0x03};  // LEN 768
+  const std::vector<Bytes> streams = {
+      // A: LEN 20 (ends inside F), 1 filler byte, B (LEN 768), F.
+      cat({{0x02, 0x80, 0x14, 0x00, 0x55}, big, f}),
+      // A: LEN 54 (ends with F's last byte), B, F.
+      cat({{0x02, 0x80, 0x36, 0x00}, big, f}),
+  };
+  for (std::size_t i = 0; i < streams.size(); ++i) {
+    Lms2xxParser p;
+    EXPECT_TRUE(feedAll(p, streams[i])) << i;
+    Taken t;
+    ASSERT_TRUE(take(p, &t)) << i;
+    expectRanges(rf, t.r, true);
+    const Lms2xxCounters& c = p.counters();
+    EXPECT_EQ(c.truncated, 1u) << i;  // one rejected region, with F inside it
+    EXPECT_EQ(c.bad_crc + c.wrong_length, 0u) << i;
+    EXPECT_EQ(c.bytes_discarded, streams[i].size() - f.size()) << i;
+    EXPECT_EQ(p.pendingBytes(), 0u);
+  }
+}
+
+// A header-like 02 80 FF FF inside the bytes of a rejected telegram is part of the damage,
+// not a second error.
+TEST(Lms2xxParser, HeadersInsideARejectedSpanAreNotCountedAgain) {
+  Bytes a = rawB0(0x4000 | 4, {1000, 0x8002, 0xFFFF, 2000});  // data bytes ... 02 80 FF FF ...
+  Lms2xxParser ok;
+  EXPECT_TRUE(feedAll(ok, a));  // intact: the inner pattern is never hunted
+  EXPECT_EQ(ok.counters().wrong_length, 0u);
+  a[a.size() - 3] ^= 0x01;  // status byte damaged
+  Lms2xxParser p;
+  EXPECT_FALSE(feedAll(p, cat({a, Bytes(4, 0x00)})));
+  EXPECT_EQ(p.counters().bad_crc, 1u);
+  EXPECT_EQ(p.counters().wrong_length, 0u);
+  EXPECT_EQ(p.counters().bytes_discarded, a.size() + 4);
+}
+
 // Byte by byte, one chunk, and random chunks give the same telegrams, counters and scan.
 TEST(Lms2xxParser, ChunkingDoesNotChangeResults) {
   std::mt19937 rng(99);

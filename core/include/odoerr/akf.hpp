@@ -8,6 +8,7 @@
 #pragma once
 
 #include <cstdint>
+#include <limits>
 
 #include "odoerr/map.hpp"
 #include "odoerr/model.hpp"
@@ -76,6 +77,7 @@ class Akf {
   void init(const StateVec& x0, const StateMat& p0) {
     x_ = x0;
     p_ = p0;
+    cache_theta_ = std::numeric_limits<S>::quiet_NaN();
   }
 
   const StateVec& state() const { return x_; }
@@ -94,7 +96,11 @@ class Akf {
     }
     Eigen::Matrix<S, 3, N> f_pose;
     Eigen::Matrix<S, 3, Model::kNoise> g_pose;
-    const Pose<S> next = transition(model_, x_, u, &f_pose, &g_pose);
+    S c;
+    S sn;
+    headingCosSin(&c, &sn);
+    S dth = S(0);
+    const Pose<S> next = transitionCS(model_, x_, u, c, sn, &f_pose, &g_pose, &dth);
     const typename Model::NoiseVec q = model_.drive.noiseVariance(u, k);
 
     // P' = F P F^T + G Q G^T, with F = [f_pose; 0 I] and G = [g_pose; 0].
@@ -114,6 +120,8 @@ class Akf {
     x_[PoseIdx::kX] = next.x;
     x_[PoseIdx::kY] = next.y;
     x_[PoseIdx::kTheta] = next.theta;
+    rotate(&c, &sn, dth);
+    storeHeadingCosSin(c, sn);
     ++counters_.predictions;
     return Status::kOk;
   }
@@ -124,13 +132,28 @@ class Akf {
   static Pose<S> transition(const Model& model, const StateVec& x, const Input& u,
                             Eigen::Matrix<S, 3, N>* f_pose,
                             Eigen::Matrix<S, 3, Model::kNoise>* g_pose) {
+    S c;
+    S sn;
+    sinCos(x[PoseIdx::kTheta], &sn, &c);
+    S dth = S(0);
+    return transitionCS(model, x, u, c, sn, f_pose, g_pose, &dth);
+  }
+
+  /// The same with cos/sin of the heading given; also returns the heading increment.
+  static Pose<S> transitionCS(const Model& model, const StateVec& x, const Input& u, S c, S sn,
+                              Eigen::Matrix<S, 3, N>* f_pose,
+                              Eigen::Matrix<S, 3, Model::kNoise>* g_pose, S* dtheta) {
     Eigen::Matrix<S, 3, N> d_state;
     Eigen::Matrix<S, 3, Model::kNoise> d_noise;
     const typename Model::NoiseVec zero = Model::NoiseVec::Zero();
     const Increment<S> inc = model.increment(u, x, zero, &d_state, &d_noise);
     IncrementJacobians<S> jp;
     const Pose<S> p{x[PoseIdx::kX], x[PoseIdx::kY], x[PoseIdx::kTheta]};
-    const Pose<S> next = applyIncrement(p, inc, &jp);
+    // cos/sin of the mid-point heading theta + dtheta/2 by a small rotation.
+    S cm = c;
+    S sm = sn;
+    rotate(&cm, &sm, S(0.5) * inc.theta);
+    const Pose<S> next = applyIncrementCS(p, inc, cm, sm, &jp);
     *f_pose = jp.d_inc * d_state;
     (*f_pose)(0, PoseIdx::kX) += S(1);
     (*f_pose)(1, PoseIdx::kY) += S(1);
@@ -138,6 +161,7 @@ class Akf {
     (*f_pose)(0, PoseIdx::kTheta) += jp.dx_dth;
     (*f_pose)(1, PoseIdx::kTheta) += jp.dy_dth;
     *g_pose = jp.d_inc * d_noise;
+    *dtheta = inc.theta;
     return next;
   }
 
@@ -150,7 +174,7 @@ class Akf {
     ScanStats<S> st;
     S c;
     S sn;
-    sinCos(x_[PoseIdx::kTheta], &sn, &c);
+    headingCosSin(&c, &sn);
     for (int i = 0; i < laser.beams(); ++i) {
       S nis = S(0);
       S dth = S(0);
@@ -158,15 +182,14 @@ class Akf {
       if (s == Status::kOk) {
         ++st.used;
         st.nis_sum += nis;
-        S ds;
-        S dc;
-        sinCos(dth, &ds, &dc);
-        const S c2 = c * dc - sn * ds;
-        sn = sn * dc + c * ds;
-        c = c2;
+        rotate(&c, &sn, dth);
       } else {
         ++st.skipped;
       }
+    }
+    if (st.used > 0) {
+      storeHeadingCosSin(c, sn);
+      mirrorUpper();
     }
     return st;
   }
@@ -178,9 +201,15 @@ class Akf {
                                   S* nis_out = nullptr) {
     S c;
     S sn;
-    sinCos(x_[PoseIdx::kTheta], &sn, &c);
+    headingCosSin(&c, &sn);
     S dth = S(0);
-    return updateBeamCS(map, laser, i, measured, c, sn, nis_out, &dth);
+    const Status st = updateBeamCS(map, laser, i, measured, c, sn, nis_out, &dth);
+    if (st == Status::kOk) {
+      rotate(&c, &sn, dth);
+      storeHeadingCosSin(c, sn);
+      mirrorUpper();
+    }
+    return st;
   }
 
   /// Expected range of beam i from a robot pose, with dr/d(x, y, theta); (c, sn) are the
@@ -222,6 +251,40 @@ class Akf {
   }
 
  private:
+  /// cos and sin of the current heading (from the cache when it is current).
+  void headingCosSin(S* c, S* sn) {
+    if (!(cache_theta_ == x_[PoseIdx::kTheta]) || cache_age_ >= kCacheRefresh) {
+      sinCos(x_[PoseIdx::kTheta], &cache_s_, &cache_c_);
+      cache_theta_ = x_[PoseIdx::kTheta];
+      cache_age_ = 0;
+    }
+    *c = cache_c_;
+    *sn = cache_s_;
+  }
+  /// Records cos/sin of the current heading, obtained by rotating the previous pair.
+  void storeHeadingCosSin(S c, S sn) {
+    cache_c_ = c;
+    cache_s_ = sn;
+    cache_theta_ = x_[PoseIdx::kTheta];
+    ++cache_age_;
+  }
+  /// Copies the upper triangle of P onto the lower one.
+  void mirrorUpper() {
+    for (int j = 0; j < N; ++j) {
+      for (int k = j + 1; k < N; ++k) p_(k, j) = p_(j, k);
+    }
+  }
+
+  /// (c, s) rotated by the angle d.
+  static void rotate(S* c, S* s, S d) {
+    S sd;
+    S cd;
+    sinCos(d, &sd, &cd);
+    const S c2 = *c * cd - *s * sd;
+    *s = *s * cd + *c * sd;
+    *c = c2;
+  }
+
   template <int MaxWalls, int MaxBeams>
   Status updateBeamCS(const SegmentMap<S, MaxWalls>& map, const LaserGeometry<S, MaxBeams>& laser,
                       int i, S measured, S c, S sn, S* nis_out, S* dtheta_out) {
@@ -239,11 +302,15 @@ class Akf {
     if (ps != Status::kOk) return ps;
 
     const S r = cfg.sigma * cfg.sigma;
+    // Within a scan only the upper triangle of P is kept current (the caller mirrors it
+    // once at the end): up(j, k) reads the upper element. After unrolling the choice of
+    // element is made at compile time.
+    auto up = [this](int j, int k) -> S { return j <= k ? p_(j, k) : p_(k, j); };
     // P H^T: only the pose columns of H are non-zero.
     S pht[N];
 #pragma GCC unroll 16
     for (int j = 0; j < N; ++j) {
-      pht[j] = p_(j, 0) * h(0) + p_(j, 1) * h(1) + p_(j, 2) * h(2);
+      pht[j] = up(j, 0) * h(0) + up(j, 1) * h(1) + up(j, 2) * h(2);
     }
     const S s = h(0) * pht[0] + h(1) * pht[1] + h(2) * pht[2] + r;
     if (!isFinite(s) || !(s > r)) {
@@ -266,8 +333,8 @@ class Akf {
         return Status::kBadCovariance;
       }
     }
-    // P -= g g^T with g = P H^T / sqrt(s). Each product g_j g_k is formed once and stored
-    // in both halves, so P stays symmetric bit for bit; loops fully unrolled (N is fixed).
+    // P -= g g^T with g = P H^T / sqrt(s), upper triangle only; mirrored by the caller, so
+    // P stays symmetric bit for bit. Loops fully unrolled (N is fixed).
     const S k_nu = nu * inv_s;
     const S root = std::sqrt(inv_s);
     S g[N];
@@ -280,9 +347,7 @@ class Akf {
     for (int j = 0; j < N; ++j) {
 #pragma GCC unroll 16
       for (int k = j; k < N; ++k) {
-        const S v = p_(j, k) - g[j] * g[k];
-        p_(j, k) = v;
-        p_(k, j) = v;
+        p_(j, k) -= g[j] * g[k];
       }
     }
     x_[PoseIdx::kTheta] = wrapAngle(x_[PoseIdx::kTheta]);
@@ -316,6 +381,14 @@ class Akf {
   Model model_{};
   AkfConfig<S> cfg_{};
   S min_cos_incidence_ = std::cos(AkfConfig<S>{}.max_incidence_rad);
+  // cos/sin of the heading, carried across predictions and beam updates by exact
+  // small-angle rotations; valid while cache_theta_ == the state's heading. Recomputed from
+  // the library every kCacheRefresh rotations so rounding cannot accumulate.
+  static constexpr int kCacheRefresh = 256;
+  S cache_theta_ = std::numeric_limits<S>::quiet_NaN();
+  S cache_c_ = S(1);
+  S cache_s_ = S(0);
+  int cache_age_ = 0;
   StateVec x_ = StateVec::Zero();
   StateMat p_ = StateMat::Identity();
   AkfCounters counters_{};

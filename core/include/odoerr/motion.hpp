@@ -48,11 +48,20 @@ struct IncrementJacobians {
 };
 
 template <typename S>
+inline Pose<S> applyIncrementCS(const Pose<S>& p, const Increment<S>& d, S c, S s,
+                                IncrementJacobians<S>* jac);
+
+template <typename S>
 inline Pose<S> applyIncrement(const Pose<S>& p, const Increment<S>& d,
                               IncrementJacobians<S>* jac = nullptr) {
   const S m = p.theta + S(0.5) * d.theta;
-  const S c = std::cos(m);
-  const S s = std::sin(m);
+  return applyIncrementCS(p, d, std::cos(m), std::sin(m), jac);
+}
+
+/// applyIncrement with c = cos and s = sin of the mid-point heading given by the caller.
+template <typename S>
+inline Pose<S> applyIncrementCS(const Pose<S>& p, const Increment<S>& d, S c, S s,
+                                IncrementJacobians<S>* jac) {
   Pose<S> out;
   out.x = p.x + d.rho * c - d.side * s;
   out.y = p.y + d.rho * s + d.side * c;
