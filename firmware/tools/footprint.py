@@ -52,6 +52,7 @@ def main():
     ap.add_argument("--plugin", required=True)
     ap.add_argument("--tape", required=True, help="host tape of the primary drive")
     ap.add_argument("--host-replay", required=True)
+    ap.add_argument("--batch-elf", help="textbook batch EKF image of the same cycle (comparison)")
     ap.add_argument("--out", required=True)
     ap.add_argument("--drive", default="diff")
     ap.add_argument("qemu", nargs=argparse.REMAINDER, help="-- qemu command without -kernel")
@@ -73,6 +74,15 @@ def main():
             tape_with_cycles(a.tape, os.path.join(d, "tape.bin"), n, dry)
             counts[(n, dry)] = run_qemu(qemu, a.plugin, os.path.abspath(a.elf), d, os.path.join(d, "count.txt"))
         t = trailer(os.path.join(tmp, str(cycles_total), "out.bin"))
+        batch = None
+        if a.batch_elf:
+            bc = {}
+            for n, dry in ((n1, False), (n2, False), (n1, True), (n2, True)):
+                d = os.path.join(tmp, f"batch-{n}{'-dry' if dry else ''}")
+                os.makedirs(d)
+                tape_with_cycles(a.tape, os.path.join(d, "tape.bin"), n, dry)
+                bc[(n, dry)] = run_qemu(qemu, a.plugin, os.path.abspath(a.batch_elf), d, os.path.join(d, "count.txt"))
+            batch = ((bc[(n2, False)] - bc[(n1, False)]) - (bc[(n2, True)] - bc[(n1, True)])) / (n2 - n1)
         best = None
         for _ in range(5):
             t0 = time.perf_counter()
@@ -92,6 +102,8 @@ def main():
         "estimator_state_bytes": t["estimator"],
         "instructions_per_cycle": round(ipc),
         "harness_instructions_per_cycle": round(harness),
+        "batch_textbook_instructions_per_cycle": round(batch) if batch else None,
+        "batch_over_sequential": round(batch / ipc, 1) if batch else None,
         "instructions_whole_drive": counts[(cycles_total, False)],
         "cycles_whole_drive": cycles_total,
         "host_ns_per_cycle": round(best * 1e9 / cycles_total),
