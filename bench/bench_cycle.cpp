@@ -65,7 +65,8 @@ void BM_FullCycle(benchmark::State& state) {
       est = fresh;  // restart the drive (rare: once per 3000 cycles)
     }
   }
-  state.counters["beams_used"] = double(est.akf().counters().beams_used);
+  state.counters["beams_per_cycle"] =
+      double(est.akf().counters().beams_used) / double(est.akf().counters().predictions);
 }
 
 /// Textbook EKF of the same cycle: dynamic-size matrices, all beams stacked, one solve.
@@ -91,6 +92,7 @@ void BM_BatchTextbook(benchmark::State& state) {
   VecX x = x0;
   MatX p = p0;
   std::size_t k = 0;
+  double fused = 0;
   for (auto _ : state) {
     const auto& st = rec.steps[k];
     const auto u = toInput<S, DriveT>(st);
@@ -126,6 +128,7 @@ void BM_BatchTextbook(benchmark::State& state) {
       nu[m] = z - r;
       ++m;
     }
+    fused += m;
     const MatX hm = h.topRows(m);
     const MatX s = hm * p * hm.transpose() + MatX::Identity(m, m) * (laser.config().sigma * laser.config().sigma);
     const Eigen::LDLT<MatX> ldlt(s);
@@ -139,6 +142,7 @@ void BM_BatchTextbook(benchmark::State& state) {
       p = p0;
     }
   }
+  state.counters["beams_per_cycle"] = fused / double(state.iterations());
 }
 
 BENCHMARK_TEMPLATE(BM_FullCycle, float, SyncDrive);
