@@ -46,12 +46,8 @@ class EncoderDriver {
   /// First read: sets the reference. kOk or the counter's error.
   hal::Status start(std::uint64_t now_us) {
     std::uint32_t c = 0;
-    const hal::Status s = counter_.read(&c);
-    ++counters_.reads;
-    if (!hal::ok(s)) {
-      ++counters_.read_errors;
-      return s;
-    }
+    const hal::Status s = readCounter(&c);
+    if (!hal::ok(s)) return s;
     last_ = c;
     last_us_ = now_us;
     started_ = true;
@@ -65,12 +61,8 @@ class EncoderDriver {
     *delta = 0;
     if (!started_) return hal::Status::kFailedPrecondition;
     std::uint32_t c = 0;
-    const hal::Status s = counter_.read(&c);
-    ++counters_.reads;
-    if (!hal::ok(s)) {
-      ++counters_.read_errors;
-      return s;
-    }
+    const hal::Status s = readCounter(&c);
+    if (!hal::ok(s)) return s;
     const std::int32_t d = wrapDelta(c, last_, counter_.bits());
     const std::uint64_t dt = now_us >= last_us_ ? now_us - last_us_ : 0;
     const std::uint64_t limit = cfg_.max_ticks_per_s * dt / 1000000u + cfg_.margin_ticks;
@@ -88,6 +80,13 @@ class EncoderDriver {
   const EncoderCounters& counters() const { return counters_; }
 
  private:
+  hal::Status readCounter(std::uint32_t* c) {
+    const hal::Status s = counter_.read(c);
+    ++counters_.reads;
+    if (!hal::ok(s)) ++counters_.read_errors;
+    return s;
+  }
+
   hal::EncoderCounter& counter_;
   EncoderConfig cfg_;
   EncoderCounters counters_{};
