@@ -6,7 +6,9 @@
   replaying the same drive for N1 and N2 cycles; (I(N2) - I(N1)) / (N2 - N1) removes the
   start-up, and the same difference for a dry run (tape decoded, filter skipped) removes
   the harness: what remains is one full cycle (predict, 36-beam update, OF).
-- stack_bytes_max: the start-up stack paint's high-water mark after a full 30 m drive.
+- text/data/bss and stack_bytes_max: of the firmware application image (--firmware-elf),
+  the stack from the start-up paint's high-water mark after a full 30 m drive over a HAL
+  tape (drivers, parser, estimator, telemetry, calibration store all running).
 - estimator_state_bytes: sizeof the estimator (AKF + OF + map + laser table), from the image.
 - host_ns_per_cycle: the host build of the same program on the same tape, best of 5.
 """
@@ -53,6 +55,8 @@ def main():
     ap.add_argument("--tape", required=True, help="host tape of the primary drive")
     ap.add_argument("--host-replay", required=True)
     ap.add_argument("--batch-elf", help="textbook batch EKF image of the same cycle (comparison)")
+    ap.add_argument("--firmware-elf", help="the firmware application image (sizes, stack)")
+    ap.add_argument("--hal-tape", help="HAL tape for the firmware image")
     ap.add_argument("--out", required=True)
     ap.add_argument("--drive", default="diff")
     ap.add_argument("qemu", nargs=argparse.REMAINDER, help="-- qemu command without -kernel")
@@ -63,7 +67,8 @@ def main():
     for path in (a.elf, a.plugin, a.tape, a.host_replay):
         if not os.path.exists(path):
             sys.exit(f"footprint: missing {path}")
-    text, data, bss = map(int, subprocess.check_output([a.size_tool, a.elf]).decode().splitlines()[1].split()[:3])
+    image = a.firmware_elf or a.elf
+    text, data, bss = map(int, subprocess.check_output([a.size_tool, image]).decode().splitlines()[1].split()[:3])
     cycles_total = struct.unpack_from("<I", open(a.tape, "rb").read(), 12)[0]
     n1, n2 = 1000, 2000
     counts = {}
@@ -74,6 +79,14 @@ def main():
             tape_with_cycles(a.tape, os.path.join(d, "tape.bin"), n, dry)
             counts[(n, dry)] = run_qemu(qemu, a.plugin, os.path.abspath(a.elf), d, os.path.join(d, "count.txt"))
         t = trailer(os.path.join(tmp, str(cycles_total), "out.bin"))
+        fw_stats = None
+        if a.firmware_elf and a.hal_tape:
+            d = os.path.join(tmp, "firmware")
+            os.makedirs(d)
+            shutil.copy(a.hal_tape, os.path.join(d, "haltape.bin"))
+            run_qemu(qemu, a.plugin, os.path.abspath(a.firmware_elf), d, os.path.join(d, "count.txt"))
+            vals = struct.unpack("<4I", open(os.path.join(d, "fwstats.bin"), "rb").read())
+            fw_stats = {"stack": vals[0], "estimator": vals[1], "app": vals[2], "cycles": vals[3]}
         batch = None
         if a.batch_elf:
             bc = {}
@@ -92,14 +105,16 @@ def main():
     harness = (counts[(n2, True)] - counts[(n1, True)]) / (n2 - n1)
     ipc = (counts[(n2, False)] - counts[(n1, False)]) / (n2 - n1) - harness
     fp = {
-        "image": os.path.basename(a.elf),
+        "image": os.path.basename(image),
         "drive": a.drive,
         "text_bytes": text,
         "data_bytes": data,
         "bss_bytes": bss,
         "flash_bytes": text + data,
-        "stack_bytes_max": t["stack"],
+        "stack_bytes_max": fw_stats["stack"] if fw_stats else t["stack"],
         "estimator_state_bytes": t["estimator"],
+        "application_state_bytes": fw_stats["app"] if fw_stats else None,
+        "cycle_image": os.path.basename(a.elf),
         "instructions_per_cycle": round(ipc),
         "harness_instructions_per_cycle": round(harness),
         "batch_textbook_instructions_per_cycle": round(batch) if batch else None,

@@ -14,7 +14,9 @@
 
 #include <unistd.h>
 
+#include "odoerr/fw/hal_tape.hpp"
 #include "odoerr/fw/tape.hpp"
+#include "odoerr/sim/hal_sim.hpp"
 #include "odoerr/sim/odolog_writer.hpp"
 #include "odoerr/sim/paper_experiment.hpp"
 
@@ -230,6 +232,62 @@ int writeTape(const std::string& out, std::uint64_t seed, int steps, int record_
   return 0;
 }
 
+/// Records what the HAL devices show the firmware at each 1 ms poll of a simulated drive
+/// (counters, laser bytes), for the firmware image's replay (firmware/apps/fw_replay).
+template <template <typename> class DriveT>
+int writeHalTape(const std::string& out, std::uint64_t seed, int steps, double corrupt) {
+  using D = DriveT<double>;
+  SimConfig cfg;
+  typename HalSimDrive<D>::Options opt;
+  opt.faults.corrupt_probability = corrupt;
+  HalSimDrive<D> world(cfg, seed, opt);
+  FilterSetup setup;
+  fw::HalTapeHeader h;
+  h.drive = PaperSim<D>::kSync ? 0 : 1;
+  h.counter_bits = opt.counter_bits;
+  h.ticks_a = float(world.sim().ticksA());
+  h.ticks_b = float(world.sim().ticksB());
+  h.x0 = float(world.sim().initialEstimate().x);
+  h.y0 = float(world.sim().initialEstimate().y);
+  h.theta0 = float(world.sim().initialEstimate().theta);
+  const typename D::NonSysVec k0 = world.sim().trueNonSys() * setup.nonsys_factor_small;
+  for (int i = 0; i < k0.size(); ++i) h.k0[i] = float(k0[i]);
+  h.baud = opt.baud;
+  std::string bytes(fw::kHalTapeHeaderBytes, '\0');
+  std::uint32_t polls = 0;
+  const std::uint64_t end_us = std::uint64_t(steps) * opt.step_us;
+  for (std::uint64_t t = 0; t <= end_us; t += 1000) {
+    world.advanceTo(t);
+    std::uint32_t ra = 0;
+    std::uint32_t rb = 0;
+    (void)world.encoderA().read(&ra);
+    (void)world.encoderB().read(&rb);
+    std::uint8_t serial[1024];
+    std::size_t n = 0;
+    (void)world.laserPort().read(serial, sizeof serial, &n);
+    std::uint8_t rec[fw::kHalTapePollBytes];
+    fw::putU32(rec, static_cast<std::uint32_t>(t));
+    fw::putU32(rec + 4, static_cast<std::uint32_t>(t >> 32));
+    fw::putU32(rec + 8, ra);
+    fw::putU32(rec + 12, rb);
+    rec[16] = static_cast<std::uint8_t>(n);
+    rec[17] = static_cast<std::uint8_t>(n >> 8);
+    bytes.append(reinterpret_cast<const char*>(rec), sizeof rec);
+    bytes.append(reinterpret_cast<const char*>(serial), n);
+    ++polls;
+  }
+  h.polls = polls;
+  fw::encodeHalTapeHeader(h, reinterpret_cast<std::uint8_t*>(bytes.data()));
+  std::string err;
+  if (!writeFile(out, bytes, &err)) {
+    std::fprintf(stderr, "odoerr hal-tape: %s\n", err.c_str());
+    return 1;
+  }
+  std::fprintf(stderr, "odoerr hal-tape: wrote %u polls (%d cycles of travel) to %s\n", polls, steps,
+               out.c_str());
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -282,10 +340,27 @@ int main(int argc, char** argv) {
   tape->add_option("--steps", tape_steps, "cycles (1 cm each)")->check(CLI::Range(1, 10000000));
   tape->add_option("--record-every", tape_every, "replay output interval (cycles)")->check(CLI::Range(1, 1000000));
 
+  auto* haltape = app.add_subcommand("hal-tape", "record the HAL devices of a simulated drive (firmware image tests)");
+  std::string ht_drive = "diff";
+  std::string ht_out;
+  std::uint64_t ht_seed = 1;
+  int ht_steps = 3000;
+  double ht_corrupt = 0.0;
+  haltape->add_option("--drive", ht_drive, "sync or diff")->check(CLI::IsMember({"sync", "diff"}));
+  haltape->add_option("--out", ht_out, "tape file to write")->required();
+  haltape->add_option("--seed", ht_seed, "random seed");
+  haltape->add_option("--steps", ht_steps, "cm of travel")->check(CLI::Range(1, 1000000));
+  haltape->add_option("--corrupt", ht_corrupt, "probability that a laser byte is corrupted")
+      ->check(CLI::Range(0.0, 1.0));
+
   CLI11_PARSE(app, argc, argv);
 
   if (paper->parsed()) {
     return runPaper(drive, runs, out, seed, threads, !no_plots, pose_term, window);
+  }
+  if (haltape->parsed()) {
+    return ht_drive == "sync" ? writeHalTape<SyncDrive>(ht_out, ht_seed, ht_steps, ht_corrupt)
+                              : writeHalTape<DiffDrive>(ht_out, ht_seed, ht_steps, ht_corrupt);
   }
   if (tape->parsed()) {
     return tape_drive == "sync" ? writeTape<SyncDrive>(tape_out, tape_seed, tape_steps, tape_every)
