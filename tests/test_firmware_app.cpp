@@ -29,14 +29,21 @@ struct FwResult {
   std::vector<std::vector<std::uint8_t>> frames;
 };
 
+struct WorldFaults {
+  double scan_dropout = 0.0;
+  int stand_after_steps = -1;
+};
+
 template <template <typename> class DriveT>
 FwResult<DriveT> runFirmware(std::uint64_t seed, const SerialFaults& faults, int glitches, Store* store,
-                             int steps = 3000) {
+                             int steps = 3000, const WorldFaults& wf = {}) {
   using D = DriveT<double>;
   using Est = typename fw::PaperTypes<float, DriveT>::EstimatorT;
   SimConfig cfg;
   typename HalSimDrive<D>::Options opt;
   opt.faults = faults;
+  opt.scan_dropout_probability = wf.scan_dropout;
+  opt.stand_after_steps = wf.stand_after_steps;
   HalSimDrive<D> world(cfg, seed, opt);
   fw::FilterSetup setup;
   const typename DriveT<float>::NonSysVec k0 = (world.sim().trueNonSys() * setup.nonsys_factor_small).template cast<float>();
@@ -201,4 +208,36 @@ TEST(FirmwareApp, CalibrationSurvivesAReset) {
   EXPECT_NEAR(second.x[3], c.value[0], 0.01);
   EXPECT_NEAR(second.x[4], c.value[1], 0.01);
   EXPECT_LT(second.sigma[3], 0.05) << "restored with its variance, not the 0.2 prior";
+}
+
+TEST(FirmwareApp, DroppedBytesAndScanDropoutsAreSurvived) {
+  Store s1, s2;
+  const auto clean = runFirmware<DiffDrive>(10, {}, 0, &s1);
+  SerialFaults f;
+  f.drop_probability = 0.002;
+  f.seed = 5;
+  WorldFaults wf;
+  wf.scan_dropout = 0.2;
+  const auto r = runFirmware<DiffDrive>(10, f, 0, &s2, 3000, wf);
+  EXPECT_LT(r.health.scans_fused, clean.health.scans_fused * 9 / 10) << "a fifth of the scans never sent";
+  EXPECT_GT(r.lms.wrong_length + r.lms.bad_crc + r.lms.truncated, 0u) << "dropped bytes break frames";
+  for (int i = 3; i < clean.x.size(); ++i) {
+    EXPECT_LT(std::abs(r.x[i] - clean.x[i]), 2.0 * clean.sigma[i]) << "parameter " << i;
+  }
+  EXPECT_LT(r.pos_err, 3.0 * r.pos_sigma + 0.01);
+}
+
+TEST(FirmwareApp, AStandingRobotStillFusesScans) {
+  Store store;
+  WorldFaults wf;
+  wf.stand_after_steps = 200;  // 2 m, then 8 s standing still
+  const auto r = runFirmware<DiffDrive>(11, {}, 0, &store, 1000, wf);
+  // Scans keep coming every 100 ms and are fused although nothing moves: about 100 scans
+  // (20 while driving 2 m, 80 while standing 8 s).
+  EXPECT_GT(r.health.scans_fused, 90u);
+  // Travel cycles (all cycles but the scan fusions): about 2 m / 1 cm, none while standing.
+  EXPECT_LT(r.health.cycles - r.health.scans_fused, 230u) << "no travel cycles while standing";
+  EXPECT_LT(r.pos_err, 3.0 * r.pos_sigma + 0.005) << "standing still, the pose stays right";
+  // While standing the position sigma shrinks with every scan (no process noise).
+  EXPECT_LT(r.pos_sigma, 0.004);
 }

@@ -5,6 +5,7 @@
 //    continuously within a simulator step; one-read glitches can be injected;
 //  - SimSerialPort: the laser's real wire bytes (SICK LMS2xx 0xB0 telegrams) arriving at
 //    the baud rate after the scan, with corrupted or dropped bytes injectable;
+//  - HalSimDrive: the drive itself, with scan dropouts and a robot that stops injectable;
 //  - SimClock, SimTelemetrySink; the parameter store is hal::FakeParamStore.
 // Host-only (uses the heap for queues); the firmware under test does not.
 #pragma once
@@ -138,11 +139,13 @@ class HalSimDrive {
     int scan_every = 10;             ///< steps between scans (10 Hz at 100 steps/s)
     std::uint64_t step_us = 10000;   ///< 1 cm per 10 ms = 1 m/s
     SerialFaults faults{};
+    double scan_dropout_probability = 0.0;  ///< a scan is not sent at all
+    int stand_after_steps = -1;             ///< >= 0: the robot stops there; scans go on
   };
 
   HalSimDrive(const SimConfig& cfg, std::uint64_t seed, const Options& opt)
       : sim_(cfg, seed), opt_(opt), enc_a_(opt.counter_bits), enc_b_(opt.counter_bits),
-        port_(clock_, opt.baud, opt.faults) {}
+        port_(clock_, opt.baud, opt.faults), dropout_rng_(seed ^ 0x5CA11u) {}
 
   PaperSim<Drive>& sim() { return sim_; }
   SimClock& clock() { return clock_; }
@@ -162,13 +165,23 @@ class HalSimDrive {
       prev_b_ = cur_b_;
       // The robot follows the circle on the truth (a perfect guidance system): the test
       // is about the firmware's estimates, not about the controller.
-      const SimStep<Drive> st = sim_.step(sim_.truth(), sim_.trueParams());
+      const bool standing = opt_.stand_after_steps >= 0 && int(steps_.size()) >= opt_.stand_after_steps;
+      SimStep<Drive> st;
+      if (standing) {  // no motion: same counts, same truth, a fresh scan
+        st = steps_.back();
+        sim_.scan(st.truth, st.ranges.data());
+        st.input = {};
+      } else {
+        st = sim_.step(sim_.truth(), sim_.trueParams());
+      }
       cur_a_ = st.counts.count_a;
       cur_b_ = st.counts.count_b;
       seg_start_us_ = next_start_us_;
       next_start_us_ += opt_.step_us;
       steps_.push_back(st);
-      if (steps_.size() % static_cast<std::size_t>(opt_.scan_every) == 0) {
+      std::uniform_real_distribution<double> u01(0.0, 1.0);
+      if (steps_.size() % static_cast<std::size_t>(opt_.scan_every) == 0 &&
+          !(u01(dropout_rng_) < opt_.scan_dropout_probability)) {
         std::uint8_t frame[1024];
         const std::size_t n = encodeLms2xxScan(st.ranges.data(), sim_.config().laser.beams, false,
                                                frame, sizeof frame);
@@ -191,6 +204,7 @@ class HalSimDrive {
   SimSerialPort port_;
   std::vector<SimStep<Drive>> steps_;
   std::vector<std::size_t> scan_steps_;
+  std::mt19937_64 dropout_rng_;
   std::int64_t prev_a_ = 0, prev_b_ = 0, cur_a_ = 0, cur_b_ = 0;
   std::uint64_t seg_start_us_ = 0;
   std::uint64_t next_start_us_ = 0;
