@@ -6,20 +6,9 @@
 #include "odoerr/fw/paper_setup.hpp"
 #include "odoerr/fw/tape.hpp"
 
-#if defined(ODOERR_TARGET_MPS2)
-#include "semihosting.hpp"
-#define OPEN_R(p) odoerr::board::shOpen(p, odoerr::board::FileMode::kReadBinary)
-#define OPEN_W(p) odoerr::board::shOpen(p, odoerr::board::FileMode::kWriteBinary)
-#define READ(h, b, n) odoerr::board::shRead(h, b, n)
-#define WRITE(h, b, n) odoerr::board::shWrite(h, b, n)
-#else
-#include <fcntl.h>
-#include <unistd.h>
-#define OPEN_R(p) ::open(p, O_RDONLY)
-#define OPEN_W(p) ::open(p, O_WRONLY | O_CREAT | O_TRUNC, 0644)
-#define READ(h, b, n) static_cast<std::size_t>(::read(h, b, n))
-#define WRITE(h, b, n) static_cast<std::size_t>(::write(h, b, n))
-#endif
+#include "../replay_io.hpp"
+
+namespace io = odoerr::replay_io;
 
 using namespace odoerr;
 
@@ -33,11 +22,11 @@ alignas(fw::BatchEkf<M>) unsigned char g_storage[sizeof(fw::BatchEkf<M>)];
 }  // namespace
 
 int main() {
-  const int in = OPEN_R("tape.bin");
+  const int in = io::openRead("tape.bin");
   if (in < 0) return 10;
   std::uint8_t hb[fw::kTapeHeaderBytes];
   fw::TapeHeader h;
-  if (READ(in, hb, sizeof hb) != sizeof hb || !fw::decodeHeader(hb, &h) || h.drive != 1) return 2;
+  if (io::read(in, hb, sizeof hb) != sizeof hb || !fw::decodeHeader(hb, &h) || h.drive != 1) return 2;
   DiffDrive<float>::NonSysVec k0;
   k0 << h.k0[0];
   // The batch filter has no OF: it gets the true K (the tape starts the OF 100x below).
@@ -49,7 +38,7 @@ int main() {
   std::uint8_t buf[4 * (2 + 64)];
   float ranges[64];
   for (std::uint32_t c = 0; c < h.cycles; ++c) {
-    if (READ(in, buf, 4 * (2 + h.beams)) != 4 * (2 + h.beams)) return 3;
+    if (io::read(in, buf, 4 * (2 + h.beams)) != 4 * (2 + h.beams)) return 3;
     const DiffDrive<float>::Input u{fw::getF32(buf), fw::getF32(buf + 4)};
     for (std::uint32_t i = 0; i < h.beams; ++i) ranges[i] = fw::getF32(buf + 8 + 4 * i);
     if (!h.dry) {
@@ -57,9 +46,9 @@ int main() {
                     float(setup.akf.max_incidence_rad));
     }
   }
-  const int out = OPEN_W("out.bin");
+  const int out = io::openWrite("out.bin");
   if (out < 0) return 11;
   std::uint8_t ob[4 * M::kStates];
   for (int i = 0; i < M::kStates; ++i) fw::putF32(ob + 4 * i, g_batch.state()[i]);
-  return WRITE(out, ob, sizeof ob) == sizeof ob ? 0 : 4;
+  return io::write(out, ob, sizeof ob) == sizeof ob ? 0 : 4;
 }

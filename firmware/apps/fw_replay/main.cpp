@@ -11,25 +11,9 @@
 #include "odoerr/fw/paper_setup.hpp"
 #include "odoerr/hal/fake_param_store.hpp"
 
-#if defined(ODOERR_TARGET_MPS2)
-#include "board.hpp"
-#include "semihosting.hpp"
-namespace io {
-inline int openRead(const char* p) { return odoerr::board::shOpen(p, odoerr::board::FileMode::kReadBinary); }
-inline int openWrite(const char* p) { return odoerr::board::shOpen(p, odoerr::board::FileMode::kWriteBinary); }
-inline std::size_t read(int h, void* b, std::size_t n) { return odoerr::board::shRead(h, b, n); }
-inline std::size_t write(int h, const void* b, std::size_t n) { return odoerr::board::shWrite(h, b, n); }
-}  // namespace io
-#else
-#include <fcntl.h>
-#include <unistd.h>
-namespace io {
-inline int openRead(const char* p) { return ::open(p, O_RDONLY); }
-inline int openWrite(const char* p) { return ::open(p, O_WRONLY | O_CREAT | O_TRUNC, 0644); }
-inline std::size_t read(int h, void* b, std::size_t n) { return static_cast<std::size_t>(::read(h, b, n)); }
-inline std::size_t write(int h, const void* b, std::size_t n) { return static_cast<std::size_t>(::write(h, b, n)); }
-}  // namespace io
-#endif
+#include "../replay_io.hpp"
+
+namespace io = odoerr::replay_io;
 
 using namespace odoerr;
 
@@ -137,11 +121,7 @@ int run(int in, int out, const fw::HalTapeHeader& h) {
   // fwstats.bin: u32 stack high-water (target; 0 on the host) | u32 sizeof estimator |
   // u32 sizeof application (drivers, queues, parser buffers) | u32 cycles
   std::uint8_t st[16];
-#if defined(ODOERR_TARGET_MPS2)
-  fw::putU32(st, odoerr::board::stackHighWaterBytes());
-#else
-  fw::putU32(st, 0);
-#endif
+  fw::putU32(st, io::stackHighWater());
   fw::putU32(st + 4, static_cast<std::uint32_t>(sizeof(Est)));
   fw::putU32(st + 8, static_cast<std::uint32_t>(sizeof(app)));
   fw::putU32(st + 12, app.health().cycles);
@@ -153,20 +133,10 @@ int run(int in, int out, const fw::HalTapeHeader& h) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  const char* in_path = "haltape.bin";
-  const char* out_path = "telemetry.bin";
-#if !defined(ODOERR_TARGET_MPS2)
-  if (argc >= 3) {
-    in_path = argv[1];
-    out_path = argv[2];
-  }
-#else
-  (void)argc;
-  (void)argv;
-#endif
-  const int in = io::openRead(in_path);
+  const io::Paths p = io::paths(argc, argv, "haltape.bin", "telemetry.bin");
+  const int in = io::openRead(p.in);
   if (in < 0) return 10;
-  const int out = io::openWrite(out_path);
+  const int out = io::openWrite(p.out);
   if (out < 0) return 11;
   std::uint8_t hb[fw::kHalTapeHeaderBytes];
   fw::HalTapeHeader h;

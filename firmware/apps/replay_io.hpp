@@ -1,0 +1,56 @@
+// File I/O for the replay applications: stdio-free POSIX calls on the host, semihosting on
+// the mps2-an386 board (same names: tape in, results out, in the working directory).
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+
+#if defined(ODOERR_TARGET_MPS2)
+#include "board.hpp"
+#include "semihosting.hpp"
+#else
+#include <fcntl.h>
+#include <unistd.h>
+#endif
+
+namespace odoerr::replay_io {
+
+#if defined(ODOERR_TARGET_MPS2)
+inline int openRead(const char* p) { return board::shOpen(p, board::FileMode::kReadBinary); }
+inline int openWrite(const char* p) { return board::shOpen(p, board::FileMode::kWriteBinary); }
+inline std::size_t read(int h, void* b, std::size_t n) { return board::shRead(h, b, n); }
+inline std::size_t write(int h, const void* b, std::size_t n) { return board::shWrite(h, b, n); }
+inline void close(int h) { board::shClose(h); }
+/// Stack high-water mark (bytes) where the board measures it, else 0.
+inline std::uint32_t stackHighWater() { return board::stackHighWaterBytes(); }
+#else
+inline int openRead(const char* p) { return ::open(p, O_RDONLY); }
+inline int openWrite(const char* p) { return ::open(p, O_WRONLY | O_CREAT | O_TRUNC, 0644); }
+inline std::size_t read(int h, void* b, std::size_t n) {
+  const ssize_t r = ::read(h, b, n);
+  return r < 0 ? 0 : static_cast<std::size_t>(r);
+}
+inline std::size_t write(int h, const void* b, std::size_t n) {
+  const ssize_t r = ::write(h, b, n);
+  return r < 0 ? 0 : static_cast<std::size_t>(r);
+}
+inline void close(int h) { ::close(h); }
+inline std::uint32_t stackHighWater() { return 0; }
+#endif
+
+/// The input and output paths: fixed names on the board, optional arguments on the host.
+struct Paths {
+  const char* in;
+  const char* out;
+};
+inline Paths paths(int argc, char** argv, const char* in, const char* out) {
+#if !defined(ODOERR_TARGET_MPS2)
+  if (argc >= 3) return {argv[1], argv[2]};
+#else
+  (void)argc;
+  (void)argv;
+#endif
+  return {in, out};
+}
+
+}  // namespace odoerr::replay_io
