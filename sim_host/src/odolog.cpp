@@ -1,0 +1,257 @@
+#include "odoerr/sim/odolog.hpp"
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <sstream>
+
+namespace odoerr::sim {
+
+double Odolog::param(const std::string& name, double fallback) const {
+  for (const auto& p : params) {
+    if (p.first == name) return p.second;
+  }
+  return fallback;
+}
+
+bool Odolog::hasParam(const std::string& name) const {
+  for (const auto& p : params) {
+    if (p.first == name) return true;
+  }
+  return false;
+}
+
+namespace {
+
+struct Parser {
+  std::string name;
+  int line = 0;
+  std::string* error;
+
+  bool fail(const std::string& rule) {
+    *error = name + ":" + std::to_string(line) + ": " + rule;
+    return false;
+  }
+
+  /// A finite decimal number (or nan when allowed); the whole token must be consumed.
+  bool number(const std::string& tok, const char* what, bool allow_nan, double* out) {
+    if (tok == "nan" || tok == "NaN" || tok == "NAN") {
+      if (!allow_nan) return fail(std::string(what) + ": nan is allowed only in scan ranges");
+      *out = std::nan("");
+      return true;
+    }
+    char* end = nullptr;
+    errno = 0;
+    const double v = std::strtod(tok.c_str(), &end);
+    if (end == tok.c_str() || *end != '\0') return fail(std::string(what) + ": '" + tok + "' is not a number");
+    if (!std::isfinite(v) || errno == ERANGE) return fail(std::string(what) + ": '" + tok + "' is not a finite number");
+    *out = v;
+    return true;
+  }
+
+  bool integer(const std::string& tok, const char* what, std::int64_t* out) {
+    char* end = nullptr;
+    errno = 0;
+    const long long v = std::strtoll(tok.c_str(), &end, 10);
+    if (end == tok.c_str() || *end != '\0') {
+      return fail(std::string(what) + ": '" + tok + "' is not a signed 64-bit integer");
+    }
+    if (errno == ERANGE) return fail(std::string(what) + ": '" + tok + "' does not fit in 64 bits");
+    *out = v;
+    return true;
+  }
+
+  bool count(const std::vector<std::string>& f, std::size_t n, const char* usage) {
+    if (f.size() - 1 != n) {
+      return fail("'" + f[0] + "' takes " + std::to_string(n) + " fields (" + usage + "), got " +
+                  std::to_string(f.size() - 1));
+    }
+    return true;
+  }
+};
+
+std::vector<std::string> split(const std::string& line) {
+  std::vector<std::string> out;
+  std::string cur;
+  for (char c : line) {
+    if (c == '#') break;
+    if (c == ' ' || c == '\t' || c == '\r') {
+      if (!cur.empty()) out.push_back(cur);
+      cur.clear();
+    } else {
+      cur += c;
+    }
+  }
+  if (!cur.empty()) out.push_back(cur);
+  return out;
+}
+
+bool isHeader(const std::string& t) {
+  return t == "drive" || t == "param" || t == "laser" || t == "wall" || t == "init" || t == "meta";
+}
+bool isData(const std::string& t) { return t == "enc" || t == "scan" || t == "pose" || t == "truth"; }
+
+}  // namespace
+
+bool parseOdolog(const std::string& text, const std::string& name, Odolog* out, std::string* error) {
+  Parser p{name, 0, error};
+  *out = Odolog{};
+  out->path = name;
+  std::istringstream in(text);
+  std::string raw;
+  bool seen_version = false;
+  bool in_data = false;
+  double last_t = -INFINITY;
+  int drive_line = 0;
+  while (std::getline(in, raw)) {
+    ++p.line;
+    const std::vector<std::string> f = split(raw);
+    if (f.empty()) continue;
+    const std::string& type = f[0];
+    if (!seen_version) {
+      if (type != "odolog" || f.size() != 2 || f[1] != "1") {
+        return p.fail("the first record must be 'odolog 1'");
+      }
+      seen_version = true;
+      continue;
+    }
+    if (type == "odolog") return p.fail("'odolog' may appear only once, as the first record");
+    if (isHeader(type)) {
+      if (in_data) return p.fail("header record '" + type + "' after the first data record");
+      if (type == "drive") {
+        if (!p.count(f, 1, "diff|sync")) return false;
+        if (!out->drive.empty()) return p.fail("'drive' given twice");
+        if (f[1] != "diff" && f[1] != "sync") return p.fail("drive must be 'diff' or 'sync', got '" + f[1] + "'");
+        out->drive = f[1];
+        drive_line = p.line;
+      } else if (type == "param") {
+        if (!p.count(f, 2, "NAME VALUE")) return false;
+        if (out->hasParam(f[1])) return p.fail("param '" + f[1] + "' given twice");
+        double v;
+        if (!p.number(f[2], "param value", false, &v)) return false;
+        out->params.emplace_back(f[1], v);
+      } else if (type == "laser") {
+        if (!p.count(f, 8, "N ANGLE_MIN ANGLE_INC RANGE_MAX SIGMA MOUNT_X MOUNT_Y MOUNT_YAW")) return false;
+        if (out->has_laser) return p.fail("'laser' given twice");
+        std::int64_t n;
+        if (!p.integer(f[1], "laser N", &n)) return false;
+        if (n <= 0 || n > 4096) return p.fail("laser N must be between 1 and 4096");
+        OdologLaser& l = out->laser;
+        l.beams = static_cast<int>(n);
+        double* dst[7] = {&l.angle_min, &l.angle_inc, &l.range_max, &l.sigma, &l.mount_x, &l.mount_y, &l.mount_yaw};
+        for (int i = 0; i < 7; ++i) {
+          if (!p.number(f[2 + i], "laser field", false, dst[i])) return false;
+        }
+        if (!(l.range_max > 0)) return p.fail("laser RANGE_MAX must be positive");
+        if (!(l.sigma > 0)) return p.fail("laser SIGMA must be positive");
+        out->has_laser = true;
+      } else if (type == "wall") {
+        if (!p.count(f, 4, "X1 Y1 X2 Y2")) return false;
+        OdologWall w;
+        double* dst[4] = {&w.x1, &w.y1, &w.x2, &w.y2};
+        for (int i = 0; i < 4; ++i) {
+          if (!p.number(f[1 + i], "wall coordinate", false, dst[i])) return false;
+        }
+        if (w.x1 == w.x2 && w.y1 == w.y2) return p.fail("wall has zero length");
+        out->walls.push_back(w);
+      } else if (type == "init") {
+        if (!p.count(f, 6, "X Y THETA SX SY STHETA")) return false;
+        if (out->has_init) return p.fail("'init' given twice");
+        OdologPose& q = out->init;
+        double* dst[6] = {&q.x, &q.y, &q.theta, &q.sx, &q.sy, &q.stheta};
+        for (int i = 0; i < 6; ++i) {
+          if (!p.number(f[1 + i], "init field", false, dst[i])) return false;
+        }
+        if (!(q.sx > 0 && q.sy > 0 && q.stheta > 0)) return p.fail("init standard deviations must be positive");
+        out->has_init = true;
+      } else {  // meta
+        if (f.size() < 2) return p.fail("'meta' takes KEY VALUE...");
+        std::string v;
+        for (std::size_t i = 2; i < f.size(); ++i) v += (i > 2 ? " " : "") + f[i];
+        out->meta.emplace_back(f[1], v);
+      }
+      continue;
+    }
+    if (isData(type)) {
+      if (out->drive.empty()) return p.fail("data record '" + type + "' before the 'drive' record");
+      in_data = true;
+      if (f.size() < 2) return p.fail("'" + type + "' needs a time");
+      double t;
+      if (!p.number(f[1], "time", false, &t)) return false;
+      if (t < last_t) {
+        std::ostringstream m;
+        m << "data records must be in non-decreasing time: t=" << f[1] << " after t=" << last_t;
+        return p.fail(m.str());
+      }
+      last_t = t;
+      if (type == "enc") {
+        if (!p.count(f, 3, "T A B")) return false;
+        OdologEnc e{t, 0, 0};
+        if (!p.integer(f[2], "enc A", &e.a) || !p.integer(f[3], "enc B", &e.b)) return false;
+        out->enc.push_back(e);
+      } else if (type == "scan") {
+        if (!out->has_laser) return p.fail("'scan' before any 'laser' record");
+        if (f.size() - 2 != static_cast<std::size_t>(out->laser.beams)) {
+          return p.fail("scan has " + std::to_string(f.size() - 2) + " ranges, the laser record says " +
+                        std::to_string(out->laser.beams));
+        }
+        OdologScan s{t, {}};
+        s.ranges.resize(f.size() - 2);
+        for (std::size_t i = 2; i < f.size(); ++i) {
+          if (!p.number(f[i], "scan range", true, &s.ranges[i - 2])) return false;
+        }
+        out->scans.push_back(std::move(s));
+      } else if (type == "pose") {
+        if (!p.count(f, 7, "T X Y THETA SX SY STHETA")) return false;
+        OdologPose q{t, 0, 0, 0, 0, 0, 0};
+        double* dst[6] = {&q.x, &q.y, &q.theta, &q.sx, &q.sy, &q.stheta};
+        for (int i = 0; i < 6; ++i) {
+          if (!p.number(f[2 + i], "pose field", false, dst[i])) return false;
+        }
+        if (!(q.sx > 0 && q.sy > 0 && q.stheta > 0)) return p.fail("pose standard deviations must be positive");
+        out->poses.push_back(q);
+      } else {  // truth
+        if (!p.count(f, 4, "T X Y THETA")) return false;
+        OdologTruth q{t, 0, 0, 0};
+        if (!p.number(f[2], "truth x", false, &q.x) || !p.number(f[3], "truth y", false, &q.y) ||
+            !p.number(f[4], "truth theta", false, &q.theta)) {
+          return false;
+        }
+        out->truth.push_back(q);
+      }
+      continue;
+    }
+    if (!std::all_of(type.begin(), type.end(), [](char c) { return (c >= 'a' && c <= 'z') || c == '_' || (c >= '0' && c <= '9'); })) {
+      return p.fail("record type '" + type + "' is not a lower-case word");
+    }
+    ++out->unknown_records;  // newer writers stay readable
+  }
+  p.line = 0;
+  if (!seen_version) return p.fail("empty file: the first record must be 'odolog 1'");
+  if (out->drive.empty()) return p.fail("no 'drive' record");
+  p.line = drive_line;
+  const char* const diff_req[] = {"wheel_radius_m", "ticks_per_rev", "wheelbase_m"};
+  const char* const sync_req[] = {"ticks_per_m", "ticks_per_rad"};
+  for (const char* r : out->drive == "diff" ? std::vector<const char*>(diff_req, diff_req + 3)
+                                              : std::vector<const char*>(sync_req, sync_req + 2)) {
+    if (!out->hasParam(r)) return p.fail(std::string("drive ") + out->drive + " needs 'param " + r + "'");
+    if (!(out->param(r, 0) > 0)) return p.fail(std::string("param ") + r + " must be positive");
+  }
+  return true;
+}
+
+bool readOdolog(const std::string& path, Odolog* out, std::string* error) {
+  std::ifstream f(path, std::ios::binary);
+  if (!f) {
+    *error = path + ": cannot open: " + std::strerror(errno);
+    return false;
+  }
+  std::ostringstream ss;
+  ss << f.rdbuf();
+  return parseOdolog(ss.str(), path, out, error);
+}
+
+}  // namespace odoerr::sim
