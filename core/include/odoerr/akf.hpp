@@ -9,6 +9,7 @@
 
 #include <cstdint>
 #include <limits>
+#include <type_traits>
 
 #include "odoerr/map.hpp"
 #include "odoerr/model.hpp"
@@ -39,6 +40,8 @@ struct AkfCounters {
   std::uint32_t gated = 0;
   std::uint32_t bad_innovation = 0;
   std::uint32_t bad_covariance = 0;
+  std::uint32_t pose_fixes_used = 0;      ///< scalar pose-fix components fused
+  std::uint32_t pose_fixes_rejected = 0;  ///< scalar pose-fix components refused
 };
 
 template <typename S>
@@ -126,6 +129,52 @@ class Akf {
     return Status::kOk;
   }
 
+  /// Fuses an absolute pose fix (x, y, theta) with standard deviations, as three scalar
+  /// updates (H a unit row each; the heading innovation wrapped), gated like a beam.
+  /// Returns kOk if all three were used, else the first refusal (the others may be used).
+  // Out of line and cold: pose fixes are rare, and their code must not change how the
+  // per-beam hot path is compiled.
+  [[nodiscard]] __attribute__((noinline, cold)) Status updatePose(S x, S y, S theta, S sx, S sy,
+                                                                   S stheta) {
+    const S z[3] = {x, y, theta};
+    const S r[3] = {sx * sx, sy * sy, stheta * stheta};
+    Status first = Status::kOk;
+    for (int j = 0; j < 3; ++j) {
+      Status st = Status::kOk;
+      if (!isFinite(z[j]) || !isFinite(r[j]) || !(r[j] > S(0))) {
+        st = Status::kBadInput;
+      } else {
+        const S s = p_(j, j) + r[j];
+        S nu = z[j] - x_[j];
+        if (j == PoseIdx::kTheta) nu = wrapAngle(nu);
+        const S inv_s = S(1) / s;
+        if (!isFinite(s) || !(s > r[j])) {
+          st = Status::kBadInnovation;
+        } else if (!(nu * nu * inv_s <= cfg_.gate_nis)) {
+          st = Status::kGated;
+        } else {
+          StateVec pht = p_.col(j);
+          for (int k = 0; k < N; ++k) {
+            if (!(p_(k, k) - pht[k] * pht[k] * inv_s > S(0))) st = Status::kBadCovariance;
+          }
+          if (st == Status::kOk) {
+            x_ += pht * (nu * inv_s);
+            x_[PoseIdx::kTheta] = wrapAngle(x_[PoseIdx::kTheta]);
+            const StateVec g = pht * std::sqrt(inv_s);
+            p_.noalias() -= g * g.transpose();
+          }
+        }
+      }
+      if (st == Status::kOk) {
+        ++counters_.pose_fixes_used;
+      } else {
+        ++counters_.pose_fixes_rejected;
+        if (first == Status::kOk) first = st;
+      }
+    }
+    return first;
+  }
+
   /// The state transition f_a of one cycle at the mean input: the next pose, and the pose
   /// rows of F_a = d f_a / d X_a (3 x N; the parameter rows are identity) and of
   /// G_a = d f_a / d nu (3 x kNoise; the parameter rows are zero).
@@ -154,7 +203,9 @@ class Akf {
     S sm = sn;
     rotate(&cm, &sm, S(0.5) * inc.theta);
     const Pose<S> next = applyIncrementCS(p, inc, cm, sm, &jp);
-    *f_pose = jp.d_inc * d_state;
+    // d_state has zero pose columns: multiply the parameter block only.
+    f_pose->template leftCols<3>().setZero();
+    f_pose->template rightCols<N - 3>() = jp.d_inc * d_state.template rightCols<N - 3>();
     (*f_pose)(0, PoseIdx::kX) += S(1);
     (*f_pose)(1, PoseIdx::kY) += S(1);
     (*f_pose)(2, PoseIdx::kTheta) += S(1);
@@ -171,6 +222,29 @@ class Akf {
   template <int MaxWalls, int MaxBeams>
   ScanStats<S> updateScan(const SegmentMap<S, MaxWalls>& map,
                           const LaserGeometry<S, MaxBeams>& laser, const S* ranges) {
+    return updateScan(map, laser, ranges, NoObserver{});
+  }
+
+  /// One beam's outcome, for diagnostics: every beam, gated ones included (predicted and
+  /// variance are 0 where the beam could not be predicted).
+  struct BeamRecord {
+    int beam;
+    Status status;
+    S measured;
+    S predicted;
+    S variance;  ///< innovation variance S = H P H^T + R
+  };
+
+  /// The default observer: reports nothing, and compiles to nothing.
+  struct NoObserver {
+    void operator()(const BeamRecord&) const {}
+  };
+
+  /// updateScan that reports every beam to `observe(const BeamRecord&)`.
+  template <int MaxWalls, int MaxBeams, typename Observer>
+  ScanStats<S> updateScan(const SegmentMap<S, MaxWalls>& map,
+                          const LaserGeometry<S, MaxBeams>& laser, const S* ranges,
+                          Observer&& observe) {
     ScanStats<S> st;
     S c;
     S sn;
@@ -178,7 +252,12 @@ class Akf {
     for (int i = 0; i < laser.beams(); ++i) {
       S nis = S(0);
       S dth = S(0);
-      const Status s = updateBeamCS(map, laser, i, ranges[i], c, sn, &nis, &dth);
+      constexpr bool kObserved = !std::is_same_v<std::decay_t<Observer>, NoObserver>;
+      S predicted = S(0);
+      S variance = S(0);
+      const Status s = updateBeamCS<kObserved>(map, laser, i, ranges[i], c, sn, &nis, &dth, &predicted,
+                                               &variance);
+      if constexpr (kObserved) observe(BeamRecord{i, s, ranges[i], predicted, variance});
       if (s == Status::kOk) {
         ++st.used;
         st.nis_sum += nis;
@@ -203,7 +282,9 @@ class Akf {
     S sn;
     headingCosSin(&c, &sn);
     S dth = S(0);
-    const Status st = updateBeamCS(map, laser, i, measured, c, sn, nis_out, &dth);
+    S predicted = S(0);
+    S variance = S(0);
+    const Status st = updateBeamCS<false>(map, laser, i, measured, c, sn, nis_out, &dth, &predicted, &variance);
     if (st == Status::kOk) {
       rotate(&c, &sn, dth);
       storeHeadingCosSin(c, sn);
@@ -285,9 +366,10 @@ class Akf {
     *c = c2;
   }
 
-  template <int MaxWalls, int MaxBeams>
+  template <bool kReport, int MaxWalls, int MaxBeams>
   Status updateBeamCS(const SegmentMap<S, MaxWalls>& map, const LaserGeometry<S, MaxBeams>& laser,
-                      int i, S measured, S c, S sn, S* nis_out, S* dtheta_out) {
+                      int i, S measured, S c, S sn, S* nis_out, S* dtheta_out, S* predicted_out,
+                      S* variance_out) {
     const LaserConfig<S>& cfg = laser.config();
     if (!isFinite(measured) || !(measured > S(0)) || measured > cfg.range_max) {
       ++counters_.no_return;
@@ -313,6 +395,13 @@ class Akf {
       pht[j] = up(j, 0) * h(0) + up(j, 1) * h(1) + up(j, 2) * h(2);
     }
     const S s = h(0) * pht[0] + h(1) * pht[1] + h(2) * pht[2] + r;
+    if constexpr (kReport) {
+      *predicted_out = predicted;
+      *variance_out = s;
+    } else {
+      (void)predicted_out;
+      (void)variance_out;
+    }
     if (!isFinite(s) || !(s > r)) {
       ++counters_.bad_innovation;
       return Status::kBadInnovation;

@@ -14,7 +14,13 @@ struct CycleResult {
   bool of_updated = false;
 };
 
-template <typename ModelT, int MaxWalls = 16, int MaxWindow = 16, int MaxBeams = 64>
+/// An absolute pose fix (e.g. motion capture, beacons) fused at the end of a cycle.
+template <typename S>
+struct PoseFix {
+  S x, y, theta, sx, sy, stheta;
+};
+
+template <typename ModelT, int MaxWalls = 16, int MaxWindow = 32, int MaxBeams = 64>
 class Estimator {
  public:
   using Model = ModelT;
@@ -39,6 +45,14 @@ class Estimator {
 
   /// One cycle. ranges may be nullptr (no scan this cycle).
   CycleResult<S> cycle(const Input& u, const S* ranges) {
+    return cycle(u, ranges, typename AkfT::NoObserver{});
+  }
+
+  /// One cycle reporting every beam to `observe` (see Akf::BeamRecord); `fix` (may be
+  /// nullptr) is an absolute pose fix fused after the scan.
+  template <typename Observer>
+  CycleResult<S> cycle(const Input& u, const S* ranges, Observer&& observe,
+                       const PoseFix<S>* fix = nullptr) {
     CycleResult<S> res;
     res.predict = akf_.predict(u, of_.estimate());
     if (res.predict != Status::kOk) {
@@ -46,8 +60,13 @@ class Estimator {
       return res;
     }
     of_.addInput(u);
-    if (ranges != nullptr) res.scan = akf_.updateScan(map_, laser_, ranges);
-    res.of_updated = of_.step(akf_);
+    if (ranges != nullptr) res.scan = akf_.updateScan(map_, laser_, ranges, observe);
+    bool measured = res.scan.used > 0;
+    if (fix != nullptr) {
+      measured = akf_.updatePose(fix->x, fix->y, fix->theta, fix->sx, fix->sy, fix->stheta) == Status::kOk ||
+                 measured;
+    }
+    res.of_updated = of_.step(akf_, measured);
     return res;
   }
 

@@ -22,7 +22,9 @@ enum class PoseErrorTerm : std::uint8_t {
 
 template <typename S>
 struct OfConfig {
-  int window = 1;  ///< j: AKF cycles between the two poses of one observation
+  /// j: at least this many AKF cycles between the two poses of one observation; a window
+  /// closes at the first cycle with a fused measurement once j cycles are in.
+  int window = 1;
   PoseErrorTerm pose_term = PoseErrorTerm::kExpected;
   /// K is kept at or above this fraction of its initial value (positivity).
   S min_fraction_of_initial = S(1e-6);
@@ -35,7 +37,7 @@ struct OfCounters {
   std::uint32_t broken_windows = 0; ///< a window discarded because an AKF step failed
 };
 
-template <typename ModelT, int MaxWindow = 16>
+template <typename ModelT, int MaxWindow = 32>
 class ObservableFilter {
  public:
   using Model = ModelT;
@@ -84,7 +86,12 @@ class ObservableFilter {
   /// Records the input of an AKF cycle that was predicted successfully.
   void addInput(const Input& u) {
     if (!open_) return;
-    if (count_ < MaxWindow) inputs_[count_++] = u;
+    if (count_ < MaxWindow) {
+      inputs_[count_++] = u;
+    } else {
+      ++counters_.broken_windows;  // the window overflowed: it can no longer be replayed
+      open_ = false;
+    }
   }
 
   /// Signals that the last AKF cycle failed: the window cannot be closed honestly.
@@ -94,11 +101,18 @@ class ObservableFilter {
     begin(akf);
   }
 
-  /// After the AKF update of a cycle: closes the window when j inputs are in, fuses the
-  /// observation, and opens the next window. Returns true when an OF update happened.
+  /// After a cycle: closes the window when at least j inputs are in AND the cycle fused a
+  /// measurement (a window ending on a prediction-only pose carries no information: its
+  /// observable is exactly zero), fuses the observation, and opens the next window. A
+  /// window that outgrows MaxWindow inputs without a measurement is discarded (counted).
+  /// Returns true when an OF update happened.
   template <typename AkfT>
-  bool step(const AkfT& akf) {
-    if (!open_ || count_ < cfg_.window) return false;
+  bool step(const AkfT& akf, bool measured = true) {
+    if (!open_) return false;
+    if (!measured || count_ < cfg_.window) {
+      if (count_ >= MaxWindow) breakWindow(akf);
+      return false;
+    }
     const bool fused = fuse(akf);
     begin(akf);
     return fused;

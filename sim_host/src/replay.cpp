@@ -1,0 +1,315 @@
+#include "odoerr/sim/replay.hpp"
+
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+
+#include <nlohmann/json.hpp>
+
+#include "odoerr/fw/paper_setup.hpp"
+
+namespace odoerr::sim {
+
+namespace {
+
+/// Encoder counts (possibly interpolated) at time t from the sorted enc records.
+struct CountsAt {
+  double a, b;
+};
+
+class EncTrack {
+ public:
+  explicit EncTrack(const std::vector<OdologEnc>& e) : e_(e) {}
+  CountsAt at(double t) {
+    while (i_ + 1 < e_.size() && e_[i_ + 1].t <= t) ++i_;
+    const OdologEnc& lo = e_[i_];
+    if (t <= lo.t || i_ + 1 >= e_.size()) return {double(lo.a), double(lo.b)};
+    const OdologEnc& hi = e_[i_ + 1];
+    const double w = hi.t > lo.t ? (t - lo.t) / (hi.t - lo.t) : 1.0;
+    return {double(lo.a) + w * double(hi.a - lo.a), double(lo.b) + w * double(hi.b - lo.b)};
+  }
+
+ private:
+  const std::vector<OdologEnc>& e_;
+  std::size_t i_ = 0;
+};
+
+const char* statusName(Status s) {
+  switch (s) {
+    case Status::kOk: return "used";
+    case Status::kBadInput: return "bad_input";
+    case Status::kNoReturn: return "no_return";
+    case Status::kNoMapHit: return "no_map_hit";
+    case Status::kGrazing: return "grazing";
+    case Status::kGated: return "gated";
+    case Status::kBadInnovation: return "bad_innovation";
+    case Status::kBadCovariance: return "bad_covariance";
+  }
+  return "?";
+}
+
+struct Truth {
+  const std::vector<OdologTruth>& v;
+  std::size_t i = 0;
+  /// Truth interpolated at t (false when the log has none around t).
+  bool at(double t, double* x, double* y, double* th) {
+    if (v.empty() || t < v.front().t || t > v.back().t) return false;
+    while (i + 1 < v.size() && v[i + 1].t <= t) ++i;
+    const OdologTruth& lo = v[i];
+    const OdologTruth& hi = i + 1 < v.size() ? v[i + 1] : v[i];
+    const double w = hi.t > lo.t ? (t - lo.t) / (hi.t - lo.t) : 0.0;
+    *x = lo.x + w * (hi.x - lo.x);
+    *y = lo.y + w * (hi.y - lo.y);
+    *th = wrapAngle(lo.theta + w * wrapAngle(hi.theta - lo.theta));
+    return true;
+  }
+};
+
+template <template <typename> class DriveT>
+bool run(const Odolog& log, const ReplayOptions& opt, ReplaySummary* sum, std::string* error) {
+  using S = double;
+  using Est = typename fw::PaperTypes<S, DriveT>::EstimatorT;
+  using M = typename Est::Model;
+  constexpr bool kSync = fw::PaperTypes<S, DriveT>::kSync;
+  if (static_cast<int>(log.walls.size()) > Est::MapT::kMaxWalls) {
+    *error = log.path + ": the map has " + std::to_string(log.walls.size()) + " walls; the replay supports " +
+             std::to_string(Est::MapT::kMaxWalls);
+    return false;
+  }
+  if (log.has_laser && log.laser.beams > Est::LaserT::kMaxBeams) {
+    *error = log.path + ": the laser has " + std::to_string(log.laser.beams) + " beams; the replay supports " +
+             std::to_string(Est::LaserT::kMaxBeams);
+    return false;
+  }
+  if (!log.has_init) {
+    *error = log.path + ": the replay needs an 'init' record (the prior on the initial pose)";
+    return false;
+  }
+  if (log.enc.size() < 2) {
+    *error = log.path + ": the replay needs at least two 'enc' records";
+    return false;
+  }
+  // The estimator from the log: drive constants, map, laser, initial pose prior.
+  DriveT<S> drive;
+  double ticks_a;
+  double ticks_b;
+  if constexpr (kSync) {
+    ticks_a = log.param("ticks_per_m", 1);
+    ticks_b = log.param("ticks_per_rad", 1);
+  } else {
+    drive.wheelbase = log.param("wheelbase_m", 0.5);
+    ticks_a = ticks_b = log.param("ticks_per_rev", 1) / (2 * kPi<double> * log.param("wheel_radius_m", 1));
+  }
+  typename Est::MapT map;
+  for (const auto& w : log.walls) (void)map.add({w.x1, w.y1, w.x2, w.y2});
+  LaserConfig<S> lc;
+  if (log.has_laser) {
+    lc = {log.laser.beams, log.laser.angle_min, log.laser.angle_inc, log.laser.range_max,
+          log.laser.sigma, log.laser.mount_x, log.laser.mount_y, log.laser.mount_yaw};
+  }
+  typename Est::LaserT laser;
+  if (!laser.init(lc)) {
+    *error = log.path + ": the laser set-up is not usable";
+    return false;
+  }
+  fw::FilterSetup setup;
+  Est est(M(drive), map, laser, {S(setup.akf.max_incidence_rad), S(setup.akf.gate_nis)}, setup.of);
+  typename M::StateVec x0 = M::StateVec::Zero();
+  x0[0] = log.init.x;
+  x0[1] = log.init.y;
+  x0[2] = log.init.theta;
+  M::setNominal(x0);
+  typename M::StateVec sig;
+  sig.setConstant(setup.sigma_scale);
+  sig[0] = log.init.sx;
+  sig[1] = log.init.sy;
+  sig[2] = log.init.stheta;
+  if constexpr (kSync) sig[M::kDriveOffset + 1] = setup.sigma_e_theta;
+  typename Est::OfT::KVec k0;
+  if constexpr (kSync) {
+    k0 << opt.k0_rho, opt.k0_theta;
+  } else {
+    k0 << opt.k0_w;
+  }
+  const typename Est::OfT::KMat pk0 = (k0 * setup.nonsys_rel_sigma).cwiseAbs2().asDiagonal();
+  est.init(x0, sig.cwiseAbs2().asDiagonal(), k0, pk0);
+
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  fs::create_directories(opt.out_dir, ec);
+  const fs::path dir(opt.out_dir);
+  std::ofstream tum(dir / "trajectory.tum");
+  std::ofstream csv(dir / "estimates.csv");
+  std::ofstream inn(dir / "innovations.csv");
+  if (!tum || !csv || !inn) {
+    *error = "cannot write to '" + opt.out_dir + "': " + std::strerror(errno);
+    return false;
+  }
+  csv << "t,x,y,theta,sigma_x,sigma_y,sigma_theta";
+  for (const char* n : DriveT<S>::kParamNames) csv << "," << n << "," << n << "_sigma";
+  for (const char* n : DriveT<S>::kNonSysNames) csv << "," << n << "," << n << "_sigma";
+  csv << ",truth_x,truth_y,truth_theta\n";
+  inn << "t,beam,status,measured,predicted,innovation,variance,nis\n";
+  char buf[256];
+
+  Truth truth{log.truth};
+  double sq_pos = 0, sq_head = 0;
+  std::size_t n_truth = 0;
+  double nis_sum = 0;
+  std::size_t nis_n = 0;
+  auto record = [&](double t) {
+    const auto& x = est.akf().state();
+    const auto& p = est.akf().covariance();
+    std::snprintf(buf, sizeof buf, "%.6f %.6f %.6f 0 0 0 %.9f %.9f\n", t, x[0], x[1], std::sin(0.5 * x[2]),
+                  std::cos(0.5 * x[2]));
+    tum << buf;
+    std::snprintf(buf, sizeof buf, "%.6f,%.6f,%.6f,%.7f,%.6g,%.6g,%.6g", t, x[0], x[1], x[2], std::sqrt(p(0, 0)),
+                  std::sqrt(p(1, 1)), std::sqrt(p(2, 2)));
+    csv << buf;
+    for (int i = 0; i < DriveT<S>::kParams; ++i) {
+      const int k = M::kDriveOffset + i;
+      std::snprintf(buf, sizeof buf, ",%.8g,%.6g", x[k], std::sqrt(p(k, k)));
+      csv << buf;
+    }
+    for (int i = 0; i < DriveT<S>::kNonSys; ++i) {
+      std::snprintf(buf, sizeof buf, ",%.6g,%.6g", est.of().estimate()[i], std::sqrt(est.of().covariance()(i, i)));
+      csv << buf;
+    }
+    double tx, ty, tth;
+    if (truth.at(t, &tx, &ty, &tth)) {
+      std::snprintf(buf, sizeof buf, ",%.6f,%.6f,%.7f\n", tx, ty, tth);
+      sq_pos += (x[0] - tx) * (x[0] - tx) + (x[1] - ty) * (x[1] - ty);
+      sq_head += wrapAngle(x[2] - tth) * wrapAngle(x[2] - tth);
+      ++n_truth;
+    } else {
+      std::snprintf(buf, sizeof buf, ",,,\n");
+    }
+    csv << buf;
+  };
+
+  EncTrack enc(log.enc);
+  CountsAt filt = enc.at(log.enc.front().t);
+  double t_f = log.enc.front().t;
+  auto inputTo = [&](const CountsAt& c) {
+    typename DriveT<S>::Input u;
+    if constexpr (kSync) {
+      u = {(c.a - filt.a) / ticks_a, (c.b - filt.b) / ticks_b};
+    } else {
+      u = {(c.a - filt.a) / ticks_a, (c.b - filt.b) / ticks_b};
+    }
+    return u;
+  };
+  auto observer = [&](double t) {
+    return [&, t](const typename Est::AkfT::BeamRecord& r) {
+      const double nu = r.measured - r.predicted;
+      const bool predicted = r.variance > 0;
+      if (predicted) {
+        nis_sum += nu * nu / r.variance;
+        ++nis_n;
+        std::snprintf(buf, sizeof buf, "%.6f,%d,%s,%.5f,%.5f,%.5f,%.6g,%.5f\n", t, r.beam, statusName(r.status),
+                      r.measured, r.predicted, nu, r.variance, nu * nu / r.variance);
+      } else {
+        std::snprintf(buf, sizeof buf, "%.6f,%d,%s,%.5f,,,,\n", t, r.beam, statusName(r.status), r.measured);
+      }
+      inn << buf;
+    };
+  };
+  auto cycleTo = [&](double t, const S* ranges, const PoseFix<S>* fix = nullptr) {
+    const CountsAt c = enc.at(t);
+    const auto u = inputTo(c);
+    (void)est.cycle(u, ranges, observer(t), fix);
+    filt = c;
+    t_f = t;
+    ++sum->cycles;
+    record(t);
+  };
+
+  // Merge the time-ordered streams: enc (travel cycles), scans and pose fixes (fused at
+  // their own stamps). At equal times: encoders first, then scans, then pose fixes.
+  std::size_t ie = 0, is = 0, ip = 0;
+  const double inf = INFINITY;
+  std::vector<S> ranges(log.has_laser ? log.laser.beams : 0);
+  while (ie < log.enc.size() || is < log.scans.size() || ip < log.poses.size()) {
+    const double te = ie < log.enc.size() ? log.enc[ie].t : inf;
+    const double ts = is < log.scans.size() ? log.scans[is].t : inf;
+    const double tp = ip < log.poses.size() ? log.poses[ip].t : inf;
+    if (te <= ts && te <= tp) {
+      const OdologEnc& e = log.enc[ie++];
+      const CountsAt c{double(e.a), double(e.b)};
+      if (DriveT<S>::pathLength(inputTo(c)) >= opt.cycle_m) cycleTo(e.t, nullptr);
+    } else if (ts <= tp) {
+      const OdologScan& s = log.scans[is++];
+      if (s.t < t_f) {
+        ++sum->scans_late;
+        continue;
+      }
+      for (std::size_t i = 0; i < ranges.size(); ++i) ranges[i] = s.ranges[i];
+      cycleTo(s.t, ranges.data());
+      ++sum->scans;
+    } else {
+      const OdologPose& q = log.poses[ip++];
+      if (q.t < t_f) {
+        ++sum->poses_late;
+        continue;
+      }
+      const PoseFix<S> fix{q.x, q.y, q.theta, q.sx, q.sy, q.stheta};
+      cycleTo(q.t, nullptr, &fix);
+      ++sum->poses;
+    }
+  }
+  const auto& c = est.akf().counters();
+  sum->beams_used = c.beams_used;
+  sum->beams_gated = c.gated;
+  sum->beams_skipped = c.no_return + c.no_map_hit + c.grazing;
+  sum->nis_mean = nis_n > 0 ? nis_sum / double(nis_n) : 0;
+  sum->pose_rmse_m = n_truth > 0 ? std::sqrt(sq_pos / double(n_truth)) : -1;
+  sum->heading_rmse_rad = n_truth > 0 ? std::sqrt(sq_head / double(n_truth)) : -1;
+  const auto& x = est.akf().state();
+  const auto& p = est.akf().covariance();
+  for (int i = 0; i < DriveT<S>::kParams; ++i) {
+    const int k = M::kDriveOffset + i;
+    sum->params.push_back({DriveT<S>::kParamNames[i], x[k], std::sqrt(p(k, k))});
+  }
+  for (int i = 0; i < DriveT<S>::kNonSys; ++i) {
+    sum->params.push_back({DriveT<S>::kNonSysNames[i], est.of().estimate()[i], std::sqrt(est.of().covariance()(i, i))});
+  }
+  return true;
+}
+
+}  // namespace
+
+bool replayOdolog(const Odolog& log, const ReplayOptions& opt, ReplaySummary* sum, std::string* error) {
+  *sum = ReplaySummary{};
+  const bool ok = log.drive == "sync" ? run<SyncDrive>(log, opt, sum, error) : run<DiffDrive>(log, opt, sum, error);
+  if (!ok) return false;
+  using json = nlohmann::ordered_json;
+  json j;
+  j["log"] = log.path;
+  j["drive"] = log.drive;
+  j["cycles"] = sum->cycles;
+  j["scans_fused"] = sum->scans;
+  j["scans_late"] = sum->scans_late;
+  j["pose_fixes"] = sum->poses;
+  j["beams_used"] = sum->beams_used;
+  j["beams_gated"] = sum->beams_gated;
+  j["beams_skipped"] = sum->beams_skipped;
+  j["nis_mean_all_innovations"] = sum->nis_mean;
+  j["unknown_records"] = log.unknown_records;
+  j["pose_rmse_m"] = sum->pose_rmse_m >= 0 ? json(sum->pose_rmse_m) : json(nullptr);
+  j["heading_rmse_rad"] = sum->heading_rmse_rad >= 0 ? json(sum->heading_rmse_rad) : json(nullptr);
+  json params = json::object();
+  for (const auto& p : sum->params) params[p.name] = {{"estimate", p.value}, {"sigma", p.sigma}};
+  j["final"] = params;
+  std::ofstream f(std::filesystem::path(opt.out_dir) / "replay.json");
+  f << j.dump(2) << "\n";
+  if (!f) {
+    *error = "cannot write '" + opt.out_dir + "/replay.json'";
+    return false;
+  }
+  return true;
+}
+
+}  // namespace odoerr::sim
