@@ -37,11 +37,7 @@ struct Recording {
 
 template <typename S, template <typename> class DriveT>
 typename DriveT<S>::Input toInput(const SimStep<DriveT<double>>& s) {
-  if constexpr (std::is_same_v<DriveT<double>, SyncDrive<double>>) {
-    return {S(s.input.rho_e), S(s.input.theta_e)};
-  } else {
-    return {S(s.input.right), S(s.input.left)};
-  }
+  return convertInput<typename DriveT<S>::Input>(s.input);
 }
 
 template <typename S, template <typename> class DriveT>

@@ -148,13 +148,8 @@ double floatDoubleWorstSigma(std::uint64_t seed, int steps) {
       rf[i] = s.ranges[i];
       rff[i] = float(s.ranges[i]);
     }
-    if constexpr (std::is_same_v<DriveT<double>, SyncDrive<double>>) {
-      (void)ed.cycle({s.input.rho_e, s.input.theta_e}, rf);
-      (void)ef.cycle({float(s.input.rho_e), float(s.input.theta_e)}, rff);
-    } else {
-      (void)ed.cycle({s.input.right, s.input.left}, rf);
-      (void)ef.cycle({float(s.input.right), float(s.input.left)}, rff);
-    }
+    (void)ed.cycle(s.input, rf);
+    (void)ef.cycle(convertInput<typename DriveT<float>::Input>(s.input), rff);
     const auto& xd = ed.akf().state();
     const auto& xf = ef.akf().state();
     const auto& pd = ed.akf().covariance();
@@ -262,4 +257,22 @@ TEST(LiteralPoseTerm, DiffCollapsesTowardsZero) {
     EXPECT_LT(lit_ratio, 0.5 * exp_ratio) << toString(lit.cases[s].start);
     EXPECT_GT(exp_ratio, 0.4);
   }
+}
+
+TEST(ObservableFilter, RecoversAfterAWindowOverflow) {
+  SegmentMap<double, 8> map;
+  auto akf = makeRoomAkf(map);
+  ObservableFilter<SyncModel> of;
+  of.init(SyncDrive<double>::NonSysVec(1e-3, 3e-4), SyncDrive<double>::NonSysVec(1e-6, 1e-7).asDiagonal());
+  of.begin(akf);
+  const SyncDrive<double>::Input u{0.01, 0.002};
+  // More inputs than the window holds, without a step in between: the window overflows.
+  for (int i = 0; i < 40; ++i) of.addInput(u);
+  EXPECT_GE(of.counters().broken_windows, 1u);
+  EXPECT_FALSE(of.step(akf, true)) << "an overflowed window is discarded, not fused";
+  // The next window works again.
+  ASSERT_EQ(akf.predict(u, of.estimate()), Status::kOk);
+  of.addInput(u);
+  EXPECT_TRUE(of.step(akf, true));
+  EXPECT_EQ(of.counters().updates, 1u);
 }

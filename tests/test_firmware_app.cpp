@@ -94,12 +94,7 @@ FwResult<DriveT> runFirmware(std::uint64_t seed, const SerialFaults& faults, int
       ++next_scan;
       for (int i = 0; i < cfg.laser.beams; ++i) r[i] = float(st.ranges[i]);
     }
-    typename DriveT<float>::Input u;
-    if constexpr (PaperSim<D>::kSync) {
-      u = {float(st.input.rho_e), float(st.input.theta_e)};
-    } else {
-      u = {float(st.input.right), float(st.input.left)};
-    }
+    const auto u = convertInput<typename DriveT<float>::Input>(st.input);
     (void)ref.cycle(u, has_scan ? r : nullptr);
   }
   FwResult<DriveT> res;
@@ -251,4 +246,35 @@ TEST(FirmwareApp, AStandingRobotStillFusesScans) {
   EXPECT_LT(r.pos_err, 3.0 * r.pos_sigma + 0.005) << "standing still, the pose stays right";
   // While standing the position sigma shrinks with every scan (no process noise).
   EXPECT_LT(r.pos_sigma, 0.004);
+}
+
+TEST(FirmwareApp, AScanOfTheWrongSizeIsCountedNotFused) {
+  // The simulator sends 36-value telegrams; a firmware configured for 18 beams must drop
+  // every one of them and count it (never fuse a scan it cannot interpret).
+  using Est = fw::PaperTypes<float, DiffDrive>::EstimatorT;
+  SimConfig cfg;
+  cfg.radius = 4.5;
+  HalSimDrive<DiffDrive<double>> world(cfg, 12, {});
+  fw::FilterSetup setup;
+  setup.laser.beams = 18;
+  setup.laser.angle_inc *= 2;
+  const DiffDrive<float>::NonSysVec k0 = world.sim().trueNonSys().cast<float>();
+  Est est = fw::makePaperEstimator<float, DiffDrive>(setup, world.sim().initialEstimate(), k0);
+  Store store;
+  SimTelemetrySink tm;
+  fw::AppConfig ac;
+  ac.ticks_per_unit_a = float(world.sim().ticksA());
+  ac.ticks_per_unit_b = float(world.sim().ticksB());
+  drivers::EncoderConfig ec;
+  ec.max_ticks_per_s = 60000;
+  fw::App<Est> app(world.encoderA(), world.encoderB(), world.laserPort(), world.clock(), store, tm, est, ac, ec, {});
+  world.advanceTo(0);
+  ASSERT_EQ(app.boot(), hal::Status::kOk);
+  for (std::uint64_t t = 1000; t <= 5000000; t += 1000) {  // 5 s, 5 m
+    world.advanceTo(t);
+    app.poll();
+  }
+  EXPECT_EQ(app.health().scans_fused, 0u);
+  EXPECT_GE(app.health().scans_wrong_size, 45u) << "a scan every 100 ms for 5 s: about 50";
+  EXPECT_GT(app.health().cycles, 400u) << "odometry cycles go on";
 }

@@ -79,11 +79,7 @@ long allocationsInCycles() {
     const auto& x = est.akf().state();
     typename DriveT<double>::ParamVec pp = DriveT<double>::nominal();
     const auto st = sim.step({double(x[0]), double(x[1]), double(x[2])}, pp);
-    if constexpr (std::is_same_v<DriveT<double>, SyncDrive<double>>) {
-      in.u = {S(st.input.rho_e), S(st.input.theta_e)};
-    } else {
-      in.u = {S(st.input.right), S(st.input.left)};
-    }
+    in.u = convertInput<typename DriveT<S>::Input>(st.input);
     for (int i = 0; i < cfg.laser.beams; ++i) in.r[i] = S(st.ranges[i]);
   }
   int beams = 0;

@@ -194,13 +194,7 @@ bool run(const Odolog& log, const ReplayOptions& opt, ReplaySummary* sum, std::s
   CountsAt filt = enc.at(log.enc.front().t);
   double t_f = log.enc.front().t;
   auto inputTo = [&](const CountsAt& c) {
-    typename DriveT<S>::Input u;
-    if constexpr (kSync) {
-      u = {(c.a - filt.a) / ticks_a, (c.b - filt.b) / ticks_b};
-    } else {
-      u = {(c.a - filt.a) / ticks_a, (c.b - filt.b) / ticks_b};
-    }
-    return u;
+    return typename DriveT<S>::Input{(c.a - filt.a) / ticks_a, (c.b - filt.b) / ticks_b};
   };
   auto observer = [&](double t) {
     return [&, t](const typename Est::AkfT::BeamRecord& r) {

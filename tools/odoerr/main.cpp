@@ -214,13 +214,9 @@ int writeTape(const std::string& out, std::uint64_t seed, int steps, int record_
   fw::encodeHeader(h, reinterpret_cast<std::uint8_t*>(bytes.data()));
   StepSink<DriveT<double>> sink = [&bytes, &cfg](const SimStep<DriveT<double>>& st) {
     std::uint8_t b[4 * (2 + kMaxBeams)];
-    if constexpr (PaperSim<DriveT<double>>::kSync) {
-      fw::putF32(b, float(st.input.rho_e));
-      fw::putF32(b + 4, float(st.input.theta_e));
-    } else {
-      fw::putF32(b, float(st.input.right));
-      fw::putF32(b + 4, float(st.input.left));
-    }
+    const auto& [a, bb] = st.input;  // channels A and B
+    fw::putF32(b, float(a));
+    fw::putF32(b + 4, float(bb));
     for (int i = 0; i < cfg.laser.beams; ++i) fw::putF32(b + 8 + 4 * i, float(st.ranges[i]));
     bytes.append(reinterpret_cast<const char*>(b), 4 * (2 + cfg.laser.beams));
   };

@@ -114,7 +114,8 @@ class Akf {
     pn.template leftCols<3>() = fp.transpose();
     pn.template topLeftCorner<3, 3>() =
         fp * f_pose.transpose() + g_pose * q.asDiagonal() * g_pose.transpose();
-    symmetrise(pn);
+    // Only the new pose block can be asymmetric by rounding; the rest is copied symmetric.
+    symmetrisePose(pn);
     if (!poseRowsHealthy(pn)) {
       ++counters_.bad_predictions;
       return Status::kBadCovariance;
@@ -446,9 +447,9 @@ class Akf {
     return Status::kOk;
   }
 
-  static void symmetrise(StateMat& p) {
-    for (int r = 0; r < N; ++r) {
-      for (int c = r + 1; c < N; ++c) {
+  static void symmetrisePose(StateMat& p) {
+    for (int r = 0; r < 3; ++r) {
+      for (int c = r + 1; c < 3; ++c) {
         const S v = S(0.5) * (p(r, c) + p(c, r));
         p(r, c) = v;
         p(c, r) = v;

@@ -97,7 +97,9 @@ struct SyncDrive {
   static constexpr const char* kParamNames[kParams] = {"delta_rho", "E_theta"};
   static constexpr const char* kNonSysNames[kNonSys] = {"K_rho", "K_theta"};
 
+  /// The two encoder channels of a cycle (see convertInput).
   struct Input {
+    using Scalar = S;
     S rho_e = S(0);    ///< encoder translation this cycle (m)
     S theta_e = S(0);  ///< encoder rotation this cycle (rad)
   };
@@ -152,7 +154,9 @@ struct DiffDrive {
   static constexpr const char* kParamNames[kParams] = {"delta_R", "delta_L", "delta_d"};
   static constexpr const char* kNonSysNames[kNonSys] = {"K_w"};
 
+  /// The two encoder channels of a cycle (see convertInput).
   struct Input {
+    using Scalar = S;
     S right = S(0);  ///< right wheel encoder travel this cycle (m)
     S left = S(0);   ///< left wheel encoder travel this cycle (m)
   };
@@ -193,5 +197,15 @@ struct DiffDrive {
     return NoiseVec(k[kKw] * std::abs(u.right), k[kKw] * std::abs(u.left));
   }
 };
+
+/// Converts a drive input to another scalar type (or another drive's input of the same
+/// shape). Every drive input is two channels: A (translation / right wheel) then B
+/// (steering / left wheel), which is also the order of odolog's `enc T A B`.
+template <typename ToInput, typename FromInput>
+ToInput convertInput(const FromInput& u) {
+  const auto& [a, b] = u;
+  using T = typename ToInput::Scalar;
+  return ToInput{T(a), T(b)};
+}
 
 }  // namespace odoerr

@@ -108,7 +108,10 @@ class ObservableFilter {
   /// Returns true when an OF update happened.
   template <typename AkfT>
   bool step(const AkfT& akf, bool measured = true) {
-    if (!open_) return false;
+    if (!open_) {  // never begun, or overflowed in addInput: restart at this pose
+      begin(akf);
+      return false;
+    }
     if (!measured || count_ < cfg_.window) {
       if (count_ >= MaxWindow) breakWindow(akf);
       return false;

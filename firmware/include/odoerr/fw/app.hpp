@@ -44,6 +44,7 @@ struct AppHealth {
   std::uint32_t scans_fused = 0;
   std::uint32_t scans_late = 0;        ///< stamp older than the filter time: dropped
   std::uint32_t scans_overwritten = 0; ///< a newer scan replaced one not yet fused
+  std::uint32_t scans_wrong_size = 0;  ///< beam count differs from the laser set-up: dropped
   std::uint32_t samples_dropped = 0;   ///< encoder queue full
   std::uint32_t encoder_errors = 0;    ///< read errors + rejected jumps
   std::uint32_t telemetry_dropped = 0;
@@ -120,7 +121,10 @@ class App {
     drivers::Lms2xxScanInfo info;
     float r[kMaxBeams];
     if (!hal::ok(parser_.takeScan(r, kMaxBeams, &info))) return;
-    if (info.count != est_.laser().beams()) return;  // a scan of another set-up: ignored
+    if (info.count != est_.laser().beams()) {  // a scan of another set-up: dropped, counted
+      ++health_.scans_wrong_size;
+      return;
+    }
     if (scan_pending_) ++health_.scans_overwritten;
     for (int i = 0; i < info.count; ++i) scan_[i] = S(r[i]);
     scan_stamp_ = info.stamp_us;
@@ -209,16 +213,9 @@ class App {
     fb_frac_ = fb;
   }
 
+  /// Channel A and B ticks to the drive's input (m; sync channel B in rad).
   Input inputFrom(S ticks_a, S ticks_b) const {
-    Input u;
-    if constexpr (std::is_same_v<Drive, SyncDrive<S>>) {
-      u.rho_e = ticks_a / S(cfg_.ticks_per_unit_a);
-      u.theta_e = ticks_b / S(cfg_.ticks_per_unit_b);
-    } else {
-      u.right = ticks_a / S(cfg_.ticks_per_unit_a);
-      u.left = ticks_b / S(cfg_.ticks_per_unit_b);
-    }
-    return u;
+    return Input{ticks_a / S(cfg_.ticks_per_unit_a), ticks_b / S(cfg_.ticks_per_unit_b)};
   }
 
   void cycle(const Input& u, const S* ranges) {
@@ -253,7 +250,7 @@ class App {
         est_.of().counters().updates, est_.of().counters().rejected,
         enc_a_.counters().jumps_rejected + enc_b_.counters().jumps_rejected,
         lc.frames_ok, lc.bad_crc, lc.truncated, lc.wrong_length,
-        health_.scans_fused, health_.scans_late, health_.scans_overwritten,
+        health_.scans_fused, health_.scans_late, health_.scans_overwritten, health_.scans_wrong_size,
         health_.telemetry_dropped, health_.saves_ok, health_.saves_failed};
     f.u8(static_cast<std::uint8_t>(sizeof counters / sizeof counters[0]));
     for (std::uint32_t c : counters) f.u32(c);

@@ -48,18 +48,10 @@ struct Trace {
 template <typename Drive>
 using StepSink = std::function<void(const SimStep<Drive>&)>;
 
-template <typename S, template <typename> class DriveT>
-struct Types {
-  using SimDrive = DriveT<double>;
-  using FilterDrive = DriveT<S>;
-  using ModelT = Model<FilterDrive>;
-  using EstimatorT = Estimator<ModelT>;
-};
-
 /// Builds the estimator for a simulator: the simulator's room and laser, the paper's
 /// priors, the non-systematic estimate started 100x below or above the simulated truth.
 template <typename S, template <typename> class DriveT>
-typename Types<S, DriveT>::EstimatorT makeEstimator(const PaperSim<DriveT<double>>& sim,
+typename fw::PaperTypes<S, DriveT>::EstimatorT makeEstimator(const PaperSim<DriveT<double>>& sim,
                                                     const FilterSetup& setup, NonSysStart start) {
   FilterSetup s = setup;
   s.laser = sim.config().laser;
@@ -116,14 +108,7 @@ Trace runDrive(const SimConfig& cfg, std::uint64_t seed, NonSysStart start, cons
     for (int i = 0; i < kP; ++i) pp[i] = double(x[Est::Model::kDriveOffset + i]);
     const SimStep<SimDrive> st = sim.step(pe, pp);
     if (sink) sink(st);
-    typename Est::Input u;
-    if constexpr (std::is_same_v<SimDrive, SyncDrive<double>>) {
-      u.rho_e = S(st.input.rho_e);
-      u.theta_e = S(st.input.theta_e);
-    } else {
-      u.right = S(st.input.right);
-      u.left = S(st.input.left);
-    }
+    const auto u = convertInput<typename Est::Input>(st.input);
     for (int i = 0; i < cfg.laser.beams; ++i) ranges[i] = S(st.ranges[i]);
     (void)est.cycle(u, ranges.data());
     if (k % record_every == 0 || k == cfg.steps) record(k * cfg.step_m);
