@@ -10,6 +10,7 @@ namespace odoerr::test {
 /// A test-only motion effect (lateral slip proportional to rho * theta) used to prove that
 /// effects compose into the state at compile time with correct indices and Jacobians.
 struct TurnSlipForTest {
+  static constexpr EffectKind kKind = EffectKind::kMotion;
   static constexpr int kParams = 1;
   static constexpr const char* kParamNames[kParams] = {"slip_gain"};
   template <typename S>
@@ -17,8 +18,8 @@ struct TurnSlipForTest {
     return Eigen::Matrix<S, kParams, 1>::Zero();
   }
   template <typename S>
-  Increment<S> apply(const Increment<S>& in, const S* p, Eigen::Matrix<S, 3, 3>& d_in,
-                     Eigen::Matrix<S, 3, kParams>& d_p) const {
+  Increment<S> apply(const Increment<S>& in, const S* p, const MotionContext<S>&,
+                     Eigen::Matrix<S, 3, 3>& d_in, Eigen::Matrix<S, 3, kParams>& d_p) const {
     Increment<S> out = in;
     out.side = in.side + p[0] * in.rho * in.theta;
     d_in.setIdentity();
@@ -31,6 +32,7 @@ struct TurnSlipForTest {
 
 /// A second test-only effect (a translation scale) to check chaining of two effects.
 struct ScaleForTest {
+  static constexpr EffectKind kKind = EffectKind::kMotion;
   static constexpr int kParams = 1;
   static constexpr const char* kParamNames[kParams] = {"extra_scale"};
   template <typename S>
@@ -38,8 +40,8 @@ struct ScaleForTest {
     return Eigen::Matrix<S, kParams, 1>::Ones();
   }
   template <typename S>
-  Increment<S> apply(const Increment<S>& in, const S* p, Eigen::Matrix<S, 3, 3>& d_in,
-                     Eigen::Matrix<S, 3, kParams>& d_p) const {
+  Increment<S> apply(const Increment<S>& in, const S* p, const MotionContext<S>&,
+                     Eigen::Matrix<S, 3, 3>& d_in, Eigen::Matrix<S, 3, kParams>& d_p) const {
     Increment<S> out = in;
     out.rho = p[0] * in.rho;
     d_in.setIdentity();

@@ -91,8 +91,9 @@ class Akf {
   const AkfConfig<S>& config() const { return cfg_; }
 
   /// Prediction with the encoder increments of one cycle; k = current non-systematic
-  /// estimate (the OF's), which sets the process noise.
-  [[nodiscard]] Status predict(const Input& u, const NonSysVec& k) {
+  /// estimate (the OF's), which sets the process noise; dt = the cycle's duration (s), used
+  /// only by effects that depend on speed (0 = unknown).
+  [[nodiscard]] Status predict(const Input& u, const NonSysVec& k, S dt = S(0)) {
     if (!Model::Drive::inputFinite(u) || !k.allFinite()) {
       ++counters_.bad_inputs;
       return Status::kBadInput;
@@ -102,8 +103,17 @@ class Akf {
     S c;
     S sn;
     headingCosSin(&c, &sn);
-    S dth = S(0);
-    const Pose<S> next = transitionCS(model_, x_, u, c, sn, &f_pose, &g_pose, &dth);
+    if constexpr (Model::kHasEffects) {
+      ctx_.dt = dt;
+      ctx_.x = x_[PoseIdx::kX];
+      ctx_.y = x_[PoseIdx::kY];
+    } else {
+      (void)dt;
+    }
+    Increment<S> inc;
+    Eigen::Matrix<S, 3, 3> d_inc;
+    const Pose<S> next = transitionCS(model_, x_, u, ctx_, c, sn, &f_pose, &g_pose, &inc,
+                                        Model::kHasNoiseEffects ? &d_inc : nullptr);
     const typename Model::NoiseVec q = model_.drive.noiseVariance(u, k);
 
     // P' = F P F^T + G Q G^T, with F = [f_pose; 0 I] and G = [g_pose; 0].
@@ -114,6 +124,10 @@ class Akf {
     pn.template leftCols<3>() = fp.transpose();
     pn.template topLeftCorner<3, 3>() =
         fp * f_pose.transpose() + g_pose * q.asDiagonal() * g_pose.transpose();
+    if constexpr (Model::kHasNoiseEffects) {
+      pn.template topLeftCorner<3, 3>() +=
+          d_inc * model_.extraVariance(inc, x_, ctx_).asDiagonal() * d_inc.transpose();
+    }
     // Only the new pose block can be asymmetric by rounding; the rest is copied symmetric.
     symmetrisePose(pn);
     if (!poseRowsHealthy(pn)) {
@@ -124,7 +138,16 @@ class Akf {
     x_[PoseIdx::kX] = next.x;
     x_[PoseIdx::kY] = next.y;
     x_[PoseIdx::kTheta] = next.theta;
-    rotate(&c, &sn, dth);
+    if constexpr (Model::kHasEffects) {
+      ctx_.advance(inc.rho, Model::Drive::encoderTravel(u));
+      if (dt > S(0)) {  // a cycle of unknown duration keeps the last velocity
+        const S inv_dt = S(1) / dt;
+        vel_x_ = (next.x - ctx_.x) * inv_dt;
+        vel_y_ = (next.y - ctx_.y) * inv_dt;
+        vel_w_ = inc.theta * inv_dt;
+      }
+    }
+    rotate(&c, &sn, inc.theta);
     storeHeadingCosSin(c, sn);
     ++counters_.predictions;
     return Status::kOk;
@@ -156,7 +179,9 @@ class Akf {
         } else {
           StateVec pht = p_.col(j);
           for (int k = 0; k < N; ++k) {
-            if (!(p_(k, k) - pht[k] * pht[k] * inv_s > S(0))) st = Status::kBadCovariance;
+            if (!(p_(k, k) - pht[k] * pht[k] * inv_s > S(0)) && !heldState(k, pht[k])) {
+              st = Status::kBadCovariance;
+            }
           }
           if (st == Status::kOk) {
             x_ += pht * (nu * inv_s);
@@ -185,18 +210,20 @@ class Akf {
     S c;
     S sn;
     sinCos(x[PoseIdx::kTheta], &sn, &c);
-    S dth = S(0);
-    return transitionCS(model, x, u, c, sn, f_pose, g_pose, &dth);
+    Increment<S> inc;
+    return transitionCS(model, x, u, MotionContext<S>{}, c, sn, f_pose, g_pose, &inc);
   }
 
-  /// The same with cos/sin of the heading given; also returns the heading increment.
-  static Pose<S> transitionCS(const Model& model, const StateVec& x, const Input& u, S c, S sn,
-                              Eigen::Matrix<S, 3, N>* f_pose,
-                              Eigen::Matrix<S, 3, Model::kNoise>* g_pose, S* dtheta) {
+  /// The same in a motion context, with cos/sin of the heading given; also returns the
+  /// increment and, optionally, d pose / d increment.
+  static Pose<S> transitionCS(const Model& model, const StateVec& x, const Input& u,
+                              const MotionContext<S>& ctx, S c, S sn, Eigen::Matrix<S, 3, N>* f_pose,
+                              Eigen::Matrix<S, 3, Model::kNoise>* g_pose, Increment<S>* inc_out,
+                              Eigen::Matrix<S, 3, 3>* d_inc_out = nullptr) {
     Eigen::Matrix<S, 3, N> d_state;
     Eigen::Matrix<S, 3, Model::kNoise> d_noise;
     const typename Model::NoiseVec zero = Model::NoiseVec::Zero();
-    const Increment<S> inc = model.increment(u, x, zero, &d_state, &d_noise);
+    const Increment<S> inc = model.increment(u, x, zero, ctx, &d_state, &d_noise);
     IncrementJacobians<S> jp;
     const Pose<S> p{x[PoseIdx::kX], x[PoseIdx::kY], x[PoseIdx::kTheta]};
     // cos/sin of the mid-point heading theta + dtheta/2 by a small rotation.
@@ -213,7 +240,8 @@ class Akf {
     (*f_pose)(0, PoseIdx::kTheta) += jp.dx_dth;
     (*f_pose)(1, PoseIdx::kTheta) += jp.dy_dth;
     *g_pose = jp.d_inc * d_noise;
-    *dtheta = inc.theta;
+    *inc_out = inc;
+    if (d_inc_out != nullptr) *d_inc_out = jp.d_inc;
     return next;
   }
 
@@ -299,12 +327,18 @@ class Akf {
   template <int MaxWalls, int MaxBeams>
   static Status expectedRange(const SegmentMap<S, MaxWalls>& map,
                               const LaserGeometry<S, MaxBeams>& laser, S x, S y, S c, S sn,
-                              int i, S min_cos_incidence, S* range, Eigen::Matrix<S, 1, 3>* h) {
+                              int i, S min_cos_incidence, S* range, Eigen::Matrix<S, 1, 3>* h,
+                              BeamContext<S>* geo = nullptr, const RayShift<S>* shift = nullptr) {
     const LaserConfig<S>& cfg = laser.config();
-    const S lx = x + c * cfg.mount_x - sn * cfg.mount_y;
-    const S ly = y + sn * cfg.mount_x + c * cfg.mount_y;
-    const S ux = c * laser.dirC(i) - sn * laser.dirS(i);
-    const S uy = sn * laser.dirC(i) + c * laser.dirS(i);
+    S lx = x + c * cfg.mount_x - sn * cfg.mount_y;
+    S ly = y + sn * cfg.mount_x + c * cfg.mount_y;
+    S ux = c * laser.dirC(i) - sn * laser.dirS(i);
+    S uy = sn * laser.dirC(i) + c * laser.dirS(i);
+    if (shift != nullptr) {
+      lx += shift->dlx;
+      ly += shift->dly;
+      rotate(&ux, &uy, shift->da);
+    }
     const RayHit<S> hit = map.castDir(lx, ly, ux, uy);
     if (!hit.hit) return Status::kNoMapHit;
     if (std::abs(hit.n_dot_u) < min_cos_incidence) return Status::kGrazing;
@@ -319,6 +353,10 @@ class Akf {
       const S dlx = -sn * cfg.mount_x - c * cfg.mount_y;
       const S dly = c * cfg.mount_x - sn * cfg.mount_y;
       (*h) << drdx, drdy, drdx * dlx + drdy * dly + drda;
+      if (geo != nullptr) {
+        *geo = BeamContext<S>{hit.range, drdx, drdy, (*h)(2), drda, c, sn, hit.n_dot_u, hit.wall,
+                              S(0), S(0), S(0)};
+      }
     }
     return Status::kOk;
   }
@@ -332,7 +370,81 @@ class Akf {
                          std::cos(max_incidence), range, h);
   }
 
+  /// Predicts every beam of a scan at the current state without fusing it (held-out
+  /// evaluation): reports each beam's record to `observe` as updateScan would.
+  template <int MaxWalls, int MaxBeams, typename Observer>
+  void evaluateScan(const SegmentMap<S, MaxWalls>& map, const LaserGeometry<S, MaxBeams>& laser,
+                    const S* ranges, Observer&& observe) const {
+    S sn;
+    S c;
+    sinCos(x_[PoseIdx::kTheta], &sn, &c);
+    for (int i = 0; i < laser.beams(); ++i) {
+      BeamRecord rec{i, Status::kNoReturn, ranges[i], S(0), S(0)};
+      S hf[kHCols];
+      if (isFinite(ranges[i]) && ranges[i] > S(0) && ranges[i] <= laser.config().range_max) {
+        rec.status = predictBeam(map, laser, i, c, sn, &rec.predicted, hf);
+        if (rec.status == Status::kOk) {
+          S v = laser.config().sigma * laser.config().sigma;
+          for (int j = 0; j < kHCols; ++j) {
+            for (int k = 0; k < kHCols; ++k) v += hf[j] * p_(j, k) * hf[k];
+          }
+          rec.variance = v;
+        }
+      }
+      observe(rec);
+    }
+  }
+
+  /// The robot's velocity over the last cycle (world frame) and its turn rate; zero when
+  /// the model has no effects or the cycle time is unknown.
+  S velocityX() const { return vel_x_; }
+  S velocityY() const { return vel_y_; }
+  S turnRate() const { return vel_w_; }
+  const MotionContext<S>& motionContext() const { return ctx_; }
+
  private:
+  /// A state held constant: its variance is exactly zero and so is its gain (a parameter
+  /// fixed at a value, e.g. an effect a diagnosis holds). The update leaves it untouched.
+  bool heldState(int j, S pht_j) const { return p_(j, j) == S(0) && pht_j == S(0); }
+
+  /// Columns of a beam's H that can be non-zero.
+  static constexpr int kHCols = Model::kHasMeasurementEffects ? N : 3;
+
+  /// Predicted range of beam i at the current state (heading cos/sin given) and the first
+  /// kHCols entries of its row of H.
+  template <int MaxWalls, int MaxBeams>
+  Status predictBeam(const SegmentMap<S, MaxWalls>& map, const LaserGeometry<S, MaxBeams>& laser,
+                     int i, S c, S sn, S* predicted, S* hf) const {
+    Eigen::Matrix<S, 1, 3> h;
+    if constexpr (Model::kHasMeasurementEffects) {
+      BeamContext<S> geo;
+      const LaserConfig<S>& lc = laser.config();
+      const RayContext<S> rc{c, sn, vel_x_, vel_y_, vel_w_, -sn * lc.mount_x - c * lc.mount_y,
+                             c * lc.mount_x - sn * lc.mount_y};
+      const RayShift<S> shift = model_.shiftRay(x_, rc);
+      const Status ps = expectedRange(map, laser, x_[PoseIdx::kX], x_[PoseIdx::kY], c, sn, i,
+                                      min_cos_incidence_, predicted, &h, &geo, &shift);
+      if (ps != Status::kOk) return ps;
+      geo.vx = vel_x_;
+      geo.vy = vel_y_;
+      geo.w = vel_w_;
+      for (int k = 0; k < kHCols; ++k) hf[k] = S(0);
+      hf[0] = h(0);
+      hf[1] = h(1);
+      hf[2] = h(2);
+      model_.measure(x_, geo, predicted, hf);
+      return Status::kOk;
+    } else {
+      const Status ps = expectedRange(map, laser, x_[PoseIdx::kX], x_[PoseIdx::kY], c, sn, i,
+                                      min_cos_incidence_, predicted, &h);
+      if (ps != Status::kOk) return ps;
+      hf[0] = h(0);
+      hf[1] = h(1);
+      hf[2] = h(2);
+      return Status::kOk;
+    }
+  }
+
   /// cos and sin of the current heading (from the cache when it is current).
   void headingCosSin(S* c, S* sn) {
     if (!(cache_theta_ == x_[PoseIdx::kTheta]) || cache_age_ >= kCacheRefresh) {
@@ -376,10 +488,9 @@ class Akf {
       ++counters_.no_return;
       return Status::kNoReturn;
     }
-    Eigen::Matrix<S, 1, 3> h;
+    S hf[kHCols];
     S predicted = S(0);
-    const Status ps = expectedRange(map, laser, x_[PoseIdx::kX], x_[PoseIdx::kY], c, sn, i,
-                                    min_cos_incidence_, &predicted, &h);
+    const Status ps = predictBeam(map, laser, i, c, sn, &predicted, hf);
     if (ps == Status::kNoMapHit) ++counters_.no_map_hit;
     if (ps == Status::kGrazing) ++counters_.grazing;
     if (ps != Status::kOk) return ps;
@@ -389,13 +500,18 @@ class Akf {
     // once at the end): up(j, k) reads the upper element. After unrolling the choice of
     // element is made at compile time.
     auto up = [this](int j, int k) -> S { return j <= k ? p_(j, k) : p_(k, j); };
-    // P H^T: only the pose columns of H are non-zero.
+    // P H^T: only the first kHCols columns of H can be non-zero (the pose, or every state
+    // when measurement effects are composed in).
     S pht[N];
 #pragma GCC unroll 16
     for (int j = 0; j < N; ++j) {
-      pht[j] = up(j, 0) * h(0) + up(j, 1) * h(1) + up(j, 2) * h(2);
+      S acc = up(j, 0) * hf[0] + up(j, 1) * hf[1] + up(j, 2) * hf[2];
+      for (int k = 3; k < kHCols; ++k) acc += up(j, k) * hf[k];
+      pht[j] = acc;
     }
-    const S s = h(0) * pht[0] + h(1) * pht[1] + h(2) * pht[2] + r;
+    S s = hf[0] * pht[0] + hf[1] * pht[1] + hf[2] * pht[2];
+    for (int k = 3; k < kHCols; ++k) s += hf[k] * pht[k];
+    s += r;
     if constexpr (kReport) {
       *predicted_out = predicted;
       *variance_out = s;
@@ -418,7 +534,7 @@ class Akf {
     // fails the comparison and is rejected too).
 #pragma GCC unroll 16
     for (int j = 0; j < N; ++j) {
-      if (!(p_(j, j) - pht[j] * pht[j] * inv_s > S(0))) {
+      if (!(p_(j, j) - pht[j] * pht[j] * inv_s > S(0)) && !heldState(j, pht[j])) {
         ++counters_.bad_covariance;
         return Status::kBadCovariance;
       }
@@ -482,6 +598,11 @@ class Akf {
   StateVec x_ = StateVec::Zero();
   StateMat p_ = StateMat::Identity();
   AkfCounters counters_{};
+  // What effects depend on (unused, and never touched, in a model without effects).
+  MotionContext<S> ctx_{};
+  S vel_x_ = S(0);
+  S vel_y_ = S(0);
+  S vel_w_ = S(0);
 };
 
 }  // namespace odoerr

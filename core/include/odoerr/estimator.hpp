@@ -53,22 +53,53 @@ class Estimator {
   template <typename Observer>
   CycleResult<S> cycle(const Input& u, const S* ranges, Observer&& observe,
                        const PoseFix<S>* fix = nullptr) {
+    return cycle(u, S(0), ranges, observe, fix);
+  }
+
+  /// The same with the cycle's duration dt (s), which speed-dependent effects need.
+  template <typename Observer>
+  CycleResult<S> cycle(const Input& u, S dt, const S* ranges, Observer&& observe,
+                       const PoseFix<S>* fix = nullptr) {
     CycleResult<S> res;
-    res.predict = akf_.predict(u, of_.estimate());
-    if (res.predict != Status::kOk) {
+    res.predict = predictStep(u, dt);
+    if (res.predict != Status::kOk) return res;
+    return measureStep(ranges, observe, fix);
+  }
+
+  /// The first half of a cycle: the AKF prediction (the OF window takes the input).
+  [[nodiscard]] Status predictStep(const Input& u, S dt) {
+    const Status st = akf_.predict(u, of_.estimate(), dt);
+    if (st != Status::kOk) {
       of_.breakWindow(akf_);
-      return res;
+      return st;
     }
     of_.addInput(u);
+    return st;
+  }
+
+  /// The second half: the scan (may be nullptr), the pose fix (may be nullptr), the OF.
+  template <typename Observer>
+  CycleResult<S> measureStep(const S* ranges, Observer&& observe, const PoseFix<S>* fix = nullptr) {
+    CycleResult<S> res;
     if (ranges != nullptr) res.scan = akf_.updateScan(map_, laser_, ranges, observe);
     bool measured = res.scan.used > 0;
     if (fix != nullptr) {
       measured = akf_.updatePose(fix->x, fix->y, fix->theta, fix->sx, fix->sy, fix->stheta) == Status::kOk ||
                  measured;
     }
-    res.of_updated = of_.step(akf_, measured);
+    res.of_updated = !freeze_k_ && of_.step(akf_, measured);
     return res;
   }
+
+  /// Predicts a scan at the current state without fusing it (see Akf::evaluateScan).
+  template <typename Observer>
+  void evaluateScan(const S* ranges, Observer&& observe) const {
+    akf_.evaluateScan(map_, laser_, ranges, observe);
+  }
+
+  /// Holds the non-systematic parameters at their current estimate (the OF stops), so
+  /// that a diagnosis cannot let inflated noise hide a systematic effect.
+  void freezeNonSystematic(bool on) { freeze_k_ = on; }
 
   const AkfT& akf() const { return akf_; }
   const OfT& of() const { return of_; }
@@ -80,6 +111,7 @@ class Estimator {
   OfT of_;
   MapT map_;
   LaserT laser_;
+  bool freeze_k_ = false;
 };
 
 }  // namespace odoerr

@@ -4,22 +4,35 @@
 //
 // Model<Drive, Effects...> is the one source of truth for state indices: the pose block
 // is PoseIdx, the drive block starts at kDriveOffset, effect E's block at offsetOf<E>().
-// A motion effect is a small self-contained type that transforms the drive's increment:
+// An effect is a small self-contained type of one of three kinds (docs/diagnostics.md
+// walks through writing one; core/include/odoerr/effects/ holds the catalogue):
 //
 //   struct MyEffect {
+//     static constexpr EffectKind kKind = EffectKind::kMotion;  // or kMeasurement, kNoise
 //     static constexpr int kParams = 1;
+//     static constexpr const char* kName = "my_effect";
 //     static constexpr const char* kParamNames[kParams] = {"my_gain"};
 //     template <typename S> static Eigen::Matrix<S, kParams, 1> nominal();
-//     // inc_out = g(inc_in, p); fills d inc_out / d inc_in (3x3) and d inc_out / d p.
+//     // kMotion: inc_out = g(inc_in, p, ctx); fills d inc_out / d inc_in and d inc_out / d p.
 //     template <typename S>
-//     Increment<S> apply(const Increment<S>& in, const S* p,
+//     Increment<S> apply(const Increment<S>& in, const S* p, const MotionContext<S>& ctx,
 //                        Eigen::Matrix<S, 3, 3>& d_in, Eigen::Matrix<S, 3, kParams>& d_p) const;
+//     // kMeasurement: the change of a beam's predicted range, and d range / d p (at the
+//     // ray as cast). With kShiftsRay, shift() first moves the ray (range() returns 0).
+//     template <typename S> S range(const BeamContext<S>& b, const S* p, S* dr_dp) const;
+//     template <typename S> void shift(const RayContext<S>& rc, const S* p, RayShift<S>* out) const;
+//     // kNoise: extra variances of (rho, theta, side) of this cycle's increment.
+//     template <typename S>
+//     Eigen::Matrix<S, 3, 1> variance(const Increment<S>& inc, const S* p,
+//                                     const MotionContext<S>& ctx) const;
 //   };
 //
 // Adding an effect to the type list enlarges the fixed-size state; the filter code is
-// unchanged (nothing is copied) and nothing is allocated.
+// unchanged (nothing is copied) and nothing is allocated. A model without effects
+// compiles to exactly the paper's filter.
 #pragma once
 
+#include <limits>
 #include <tuple>
 #include <type_traits>
 #include <utility>
@@ -27,6 +40,68 @@
 #include "odoerr/motion.hpp"
 
 namespace odoerr {
+
+enum class EffectKind { kMotion, kMeasurement, kNoise };
+
+/// What a motion or noise effect may depend on besides the increment itself: the cycle's
+/// duration (speeds are rho / dt, dtheta / dt; 0 = unknown, speed-dependent effects then
+/// stay inactive), the travel so far and the pose at the start of the cycle.
+template <typename S>
+struct MotionContext {
+  S dt = S(0);
+  S s_abs = S(0);                                  ///< cumulative |rho| (m)
+  S s_signed = S(0);                               ///< cumulative signed rho (m)
+  S s_rev = std::numeric_limits<S>::infinity();   ///< |travel| since the last reversal
+  S s_enc = S(0);  ///< cumulative signed travel the encoders report (nominal constants): the wheel angle
+  S x = S(0);
+  S y = S(0);
+  int last_sign = 0;                               ///< sign of the last non-zero rho
+
+  /// Advances the odometers past a cycle whose translation was rho (encoders: enc).
+  void advance(S rho, S enc) {
+    s_enc += enc;
+    const int sign = rho > S(0) ? 1 : (rho < S(0) ? -1 : 0);
+    if (sign != 0 && last_sign != 0 && sign != last_sign) s_rev = S(0);
+    if (sign != 0) last_sign = sign;
+    s_abs += std::abs(rho);
+    s_signed += rho;
+    s_rev += std::abs(rho);
+  }
+};
+
+/// Where a beam's ray starts and points, relative to the nominal set-up: a shift of the
+/// laser position (world frame, m) and a rotation of the ray (rad). Measurement effects
+/// that move the ray (mount offsets, latency) say so here, before the ray is cast, so that
+/// the cast finds the wall the shifted ray really hits (a first-order range correction
+/// cannot follow a ray across a corner).
+template <typename S>
+struct RayShift {
+  S dlx = S(0);
+  S dly = S(0);
+  S da = S(0);
+};
+
+/// What a ray-shifting effect may depend on.
+template <typename S>
+struct RayContext {
+  S c, sn;              ///< cos, sin of the robot heading
+  S vx, vy, w;          ///< robot velocity (world frame) and turn rate
+  S lever_x, lever_y;   ///< d (laser position) / d heading
+};
+
+/// What a measurement effect may depend on: the beam's nominal prediction and its
+/// geometry (all in the world frame), and the robot's latest velocity.
+template <typename S>
+struct BeamContext {
+  S range;          ///< predicted range of the nominal model (m)
+  S drdx, drdy;     ///< d range / d laser position (= d range / d robot x, y)
+  S drdth;          ///< d range / d robot heading (beam rotation and mount lever)
+  S drda;           ///< d range / d beam direction (rotation of the ray alone)
+  S c, sn;          ///< cos, sin of the robot heading
+  S n_dot_u;        ///< wall normal . ray direction
+  int wall;         ///< index of the wall hit
+  S vx, vy, w;      ///< robot velocity (world frame, m/s) and turn rate (rad/s)
+};
 
 template <typename DriveT, typename... Effects>
 class Model {
@@ -39,6 +114,9 @@ class Model {
 
   static constexpr int kDriveOffset = PoseIdx::kDim;
   static constexpr int kEffectParams = (0 + ... + Effects::kParams);
+  static constexpr bool kHasEffects = sizeof...(Effects) > 0;
+  static constexpr bool kHasMeasurementEffects = (false || ... || (Effects::kKind == EffectKind::kMeasurement));
+  static constexpr bool kHasNoiseEffects = (false || ... || (Effects::kKind == EffectKind::kNoise));
   static constexpr int kParams = Drive::kParams + kEffectParams;
   static constexpr int kStates = PoseIdx::kDim + kParams;
   static constexpr int kNoise = Drive::kNoise;
@@ -71,6 +149,13 @@ class Model {
   Increment<S> increment(const Input& u, const StateVec& x, const NoiseVec& nu,
                          Eigen::Matrix<S, 3, kStates>* d_state = nullptr,
                          Eigen::Matrix<S, 3, kNoise>* d_noise = nullptr) const {
+    return increment(u, x, nu, MotionContext<S>{}, d_state, d_noise);
+  }
+
+  /// The same in a motion context (what the motion effects depend on).
+  Increment<S> increment(const Input& u, const StateVec& x, const NoiseVec& nu,
+                         const MotionContext<S>& ctx, Eigen::Matrix<S, 3, kStates>* d_state,
+                         Eigen::Matrix<S, 3, kNoise>* d_noise) const {
     const auto p = x.template segment<Drive::kParams>(kDriveOffset);
     Increment<S> inc = drive.increment(u, p, nu);
     if (d_state != nullptr) {
@@ -78,8 +163,63 @@ class Model {
       d_state->template block<3, Drive::kParams>(0, kDriveOffset) = drive.dIncDParams(u, p);
       *d_noise = drive.dIncDNoise(u, p);
     }
-    applyEffects(x, inc, d_state, d_noise, std::index_sequence_for<Effects...>{});
+    applyEffects(x, ctx, inc, d_state, d_noise, std::index_sequence_for<Effects...>{});
     return inc;
+  }
+
+  /// Extra variances of (rho, theta, side) from the noise effects for this increment.
+  Eigen::Matrix<S, 3, 1> extraVariance(const Increment<S>& inc, const StateVec& x,
+                                       const MotionContext<S>& ctx) const {
+    Eigen::Matrix<S, 3, 1> v = Eigen::Matrix<S, 3, 1>::Zero();
+    std::apply(
+        [&](const auto&... e) {
+          (
+              [&](const auto& eff) {
+                using E = std::decay_t<decltype(eff)>;
+                if constexpr (E::kKind == EffectKind::kNoise) {
+                  v += eff.variance(inc, x.data() + offsetOf<E>(), ctx);
+                }
+              }(e),
+              ...);
+        },
+        effects);
+    return v;
+  }
+
+  /// The ray shift of the measurement effects that move the ray (kShiftsRay).
+  RayShift<S> shiftRay(const StateVec& x, const RayContext<S>& rc) const {
+    RayShift<S> out;
+    std::apply(
+        [&](const auto&... e) {
+          (
+              [&](const auto& eff) {
+                using E = std::decay_t<decltype(eff)>;
+                if constexpr (E::kKind == EffectKind::kMeasurement) {
+                  if constexpr (E::kShiftsRay) eff.shift(rc, x.data() + offsetOf<E>(), &out);
+                }
+              }(e),
+              ...);
+        },
+        effects);
+    return out;
+  }
+
+  /// Adds the measurement effects to a beam's prediction: *range is corrected and their
+  /// columns of d range / d state are written into h (the other columns are untouched).
+  void measure(const StateVec& x, const BeamContext<S>& b, S* range, S* h) const {
+    std::apply(
+        [&](const auto&... e) {
+          (
+              [&](const auto& eff) {
+                using E = std::decay_t<decltype(eff)>;
+                if constexpr (E::kKind == EffectKind::kMeasurement) {
+                  constexpr int off = offsetOf<E>();
+                  *range += eff.range(b, x.data() + off, h + off);
+                }
+              }(e),
+              ...);
+        },
+        effects);
   }
 
  private:
@@ -107,26 +247,37 @@ class Model {
   }
 
   template <std::size_t... I>
-  void applyEffects(const StateVec& x, Increment<S>& inc, Eigen::Matrix<S, 3, kStates>* d_state,
-                    Eigen::Matrix<S, 3, kNoise>* d_noise, std::index_sequence<I...>) const {
+  void applyEffects(const StateVec& x, const MotionContext<S>& ctx, Increment<S>& inc,
+                    Eigen::Matrix<S, 3, kStates>* d_state, Eigen::Matrix<S, 3, kNoise>* d_noise,
+                    std::index_sequence<I...>) const {
     (void)x;  // unused when the model has no effects
+    (void)ctx;
     (void)d_state;
     (void)d_noise;
-    (applyOne(std::get<I>(effects), x, inc, d_state, d_noise), ...);
+    (applyOne(std::get<I>(effects), x, ctx, inc, d_state, d_noise), ...);
   }
   template <typename E>
-  void applyOne(const E& e, const StateVec& x, Increment<S>& inc,
+  void applyOne(const E& e, const StateVec& x, const MotionContext<S>& ctx, Increment<S>& inc,
                 Eigen::Matrix<S, 3, kStates>* d_state, Eigen::Matrix<S, 3, kNoise>* d_noise) const {
-    constexpr int off = offsetOf<E>();
-    Eigen::Matrix<S, 3, 3> d_in;
-    Eigen::Matrix<S, 3, E::kParams> d_p;
-    const S* p = x.data() + off;
-    inc = e.apply(inc, p, d_in, d_p);
-    if (d_state != nullptr) {
-      // chain rule: everything upstream of this effect passes through d_in
-      *d_state = d_in * (*d_state);
-      d_state->template block<3, E::kParams>(0, off) += d_p;
-      *d_noise = d_in * (*d_noise);
+    if constexpr (E::kKind == EffectKind::kMotion) {
+      constexpr int off = offsetOf<E>();
+      Eigen::Matrix<S, 3, 3> d_in;
+      Eigen::Matrix<S, 3, E::kParams> d_p;
+      const S* p = x.data() + off;
+      inc = e.apply(inc, p, ctx, d_in, d_p);
+      if (d_state != nullptr) {
+        // chain rule: everything upstream of this effect passes through d_in
+        *d_state = d_in * (*d_state);
+        d_state->template block<3, E::kParams>(0, off) += d_p;
+        *d_noise = d_in * (*d_noise);
+      }
+    } else {
+      (void)e;
+      (void)x;
+      (void)ctx;
+      (void)inc;
+      (void)d_state;
+      (void)d_noise;
     }
   }
 };

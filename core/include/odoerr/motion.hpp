@@ -113,6 +113,8 @@ struct SyncDrive {
 
   /// Encoder path length of the cycle (the unit of the error growth).
   static S pathLength(const Input& u) { return std::abs(u.rho_e); }
+  /// Signed translation the encoders report with the nominal constants.
+  static S encoderTravel(const Input& u) { return u.rho_e; }
 
   /// Mean increment (1) plus noise nu = [nu_rho, nu_theta] (2).
   Increment<S> increment(const Input& u, const ParamVec& p, const NoiseVec& nu) const {
@@ -169,6 +171,8 @@ struct DiffDrive {
   static ParamVec nominal() { return ParamVec(S(1), S(1), S(1)); }
   static bool inputFinite(const Input& u) { return isFinite(u.right) && isFinite(u.left); }
   static S pathLength(const Input& u) { return S(0.5) * (std::abs(u.right) + std::abs(u.left)); }
+  /// Signed translation the encoders report with the nominal constants.
+  static S encoderTravel(const Input& u) { return S(0.5) * (u.right + u.left); }
 
   Increment<S> increment(const Input& u, const ParamVec& p, const NoiseVec& nu) const {
     const S r = p[kDeltaR] * u.right + nu[0];

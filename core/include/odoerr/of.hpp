@@ -73,6 +73,8 @@ class ObservableFilter {
   /// The last observation and its predicted mean (for diagnostics).
   const ObsVec& lastObservation() const { return last_z_; }
   const ObsVec& lastPredicted() const { return last_m_; }
+  /// Innovation variances of the last observation (diagonal of H P H^T + R).
+  const ObsVec& lastVariance() const { return last_s_; }
 
   /// Starts a window at the AKF's current pose. Called once after the AKF is initialised.
   template <typename AkfT>
@@ -185,6 +187,7 @@ class ObservableFilter {
     last_m_ = m;
 
     const ObsMat s = h * p_ * h.transpose() + r;
+    last_s_ = s.diagonal();
     ObsMat s_inv;
     if (!invertSpd(s, &s_inv)) {
       ++counters_.rejected;
@@ -243,6 +246,7 @@ class ObservableFilter {
   bool open_ = false;
   ObsVec last_z_ = ObsVec::Zero();
   ObsVec last_m_ = ObsVec::Zero();
+  ObsVec last_s_ = ObsVec::Zero();
   OfCounters counters_{};
 };
 

@@ -1,0 +1,29 @@
+// odoerr core: the catalogue of candidate physical effects, as one compile-time list.
+// docs/effect-catalogue.md defines each; docs/diagnostics.md shows how to add one.
+#pragma once
+
+#include <tuple>
+
+#include "odoerr/effects/measurement_effects.hpp"
+#include "odoerr/effects/motion_effects.hpp"
+
+namespace odoerr::effects {
+
+using Catalogue = std::tuple<TurnSlip, RotationSlip, SpeedScale, WheelEccentricity, Backlash, RegionScale,
+                             RadiusDrift, TurnNoise, RangeBias, RangeScale, LaserMountXY, LaserMountYaw,
+                             ScanLatency, WallOffset>;
+
+/// Prior sigma of parameter i of effect E (a single listed value applies to all).
+template <typename E>
+constexpr double priorSigma(int i) {
+  constexpr int n = sizeof(E::kPriorSigma) / sizeof(double);
+  return E::kPriorSigma[i < n ? i : n - 1];
+}
+/// A magnitude of parameter i worth detecting.
+template <typename E>
+constexpr double referenceSize(int i) {
+  constexpr int n = sizeof(E::kReference) / sizeof(double);
+  return E::kReference[i < n ? i : n - 1];
+}
+
+}  // namespace odoerr::effects
