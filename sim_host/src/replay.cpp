@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "odoerr/fw/paper_setup.hpp"
+#include "odoerr/sim/stats.hpp"
 
 namespace odoerr::sim {
 
@@ -36,20 +37,6 @@ class EncTrack {
   const std::vector<OdologEnc>& e_;
   std::size_t i_ = 0;
 };
-
-const char* statusName(Status s) {
-  switch (s) {
-    case Status::kOk: return "used";
-    case Status::kBadInput: return "bad_input";
-    case Status::kNoReturn: return "no_return";
-    case Status::kNoMapHit: return "no_map_hit";
-    case Status::kGrazing: return "grazing";
-    case Status::kGated: return "gated";
-    case Status::kBadInnovation: return "bad_innovation";
-    case Status::kBadCovariance: return "bad_covariance";
-  }
-  return "?";
-}
 
 struct Truth {
   const std::vector<OdologTruth>& v;

@@ -1,6 +1,10 @@
 // odoerr: the command-line tool.
 //   odoerr paper --drive sync|diff --runs 100 --out DIR   the Monte Carlo of Section 5
 //   odoerr sim   --drive sync|diff --seed 7 --out FILE    one simulated drive as odolog v1
+//                [--effect NAME=V,...]... [--minutes M]     an exciting drive with effects injected
+//   odoerr replay LOG --out DIR                            the estimator over a recorded drive
+//   odoerr diagnose LOG --json OUT [--with E1,E2] [--out DIR]   model against measurements
+//   odoerr report LOG --out DIR [--with E1,E2]             diagnose + a self-contained HTML page
 #include <CLI/CLI.hpp>
 #include <cerrno>
 #include <chrono>
@@ -16,6 +20,8 @@
 
 #include "odoerr/fw/hal_tape.hpp"
 #include "odoerr/fw/tape.hpp"
+#include "odoerr/sim/diagnose.hpp"
+#include "odoerr/sim/effect_sim.hpp"
 #include "odoerr/sim/hal_sim.hpp"
 #include "odoerr/sim/odolog.hpp"
 #include "odoerr/sim/odolog_writer.hpp"
@@ -73,6 +79,11 @@ std::string plotScript() {
   return ODOERR_PLOT_SCRIPT;
 }
 
+std::string reportScript() {
+  if (const char* p = std::getenv("ODOERR_REPORT_SCRIPT")) return p;
+  return ODOERR_REPORT_SCRIPT;
+}
+
 std::string shellQuote(const std::string& s) {
   std::string out = "'";
   for (char c : s) {
@@ -115,6 +126,43 @@ class ProgressBar {
   bool tty_ = isatty(fileno(stderr)) != 0;
   int last_quarter_ = -1;
 };
+
+int runDiagnose(const std::string& log_path, const std::string& json_path, const std::string& out_dir,
+                const std::vector<std::string>& with, int threads, bool quiet) {
+  const char* who = quiet ? "odoerr report" : "odoerr diagnose";
+  Odolog log;
+  std::string err;
+  if (!readOdolog(log_path, &log, &err)) {
+    std::fprintf(stderr, "%s: %s\n", who, err.c_str());
+    return 1;
+  }
+  if (!out_dir.empty() && !prepareOutDir(out_dir, &err)) {
+    std::fprintf(stderr, "%s: %s\n", who, err.c_str());
+    return 1;
+  }
+  DiagnoseOptions opt;
+  opt.out_dir = out_dir;
+  opt.with = with;
+  opt.threads = threads;
+  const auto t0 = std::chrono::steady_clock::now();
+  nlohmann::ordered_json result;
+  if (!diagnoseOdolog(log, opt, &result, &err)) {
+    std::fprintf(stderr, "%s: %s\n", who, err.c_str());
+    return 1;
+  }
+  const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  result["seconds"] = secs;
+  if (!writeFile(json_path, result.dump(2) + "\n", &err)) {
+    std::fprintf(stderr, "%s: %s\n", who, err.c_str());
+    return 1;
+  }
+  std::string named;
+  for (const auto& r : result["ranking"])
+    if (r["significant"].get<bool>()) named += (named.empty() ? "" : ", ") + r["effect"].get<std::string>();
+  std::fprintf(stderr, "%s: %s; verdict %s; effects named: %s (%.1f s)\n", who, log_path.c_str(),
+               result["verdict"].get<std::string>().c_str(), named.empty() ? "none" : named.c_str(), secs);
+  return 0;
+}
 
 int runPaper(const std::string& drive, int runs, const std::string& out, std::uint64_t seed,
              int threads, bool plots, const std::string& pose_term, int window) {
@@ -328,6 +376,33 @@ int main(int argc, char** argv) {
   sim->add_option("--steps", steps, "cycles (1 cm each)")->check(CLI::Range(1, 10000000));
   sim->add_option("--start", start, "initial non-systematic estimate: small or large")
       ->check(CLI::IsMember({"small", "large"}));
+  std::string scenario = "paper";
+  std::vector<std::string> sim_effects;
+  double minutes = 4.0;
+  sim->add_option("--scenario", scenario,
+                  "paper (the Section 5 circle) or excite (figure-eights at three speeds, reversals; "
+                  "implied by --effect)")
+      ->check(CLI::IsMember({"paper", "excite"}));
+  sim->add_option("--effect", sim_effects, "inject a catalogue effect: NAME=V1[,V2...] (repeatable)");
+  sim->add_option("--minutes", minutes, "length of an excite drive")->check(CLI::Range(0.05, 600.0));
+
+  auto* diag = app.add_subcommand("diagnose", "does the model explain the measurements; which effect is missing");
+  std::string dg_log, dg_json, dg_out;
+  std::vector<std::string> dg_with;
+  int dg_threads = 2;
+  diag->add_option("LOG", dg_log, "odolog v1 file")->required();
+  diag->add_option("--json", dg_json, "result file (the contract in docs/diagnostics.md)")->required();
+  diag->add_option("--with", dg_with, "effects to add and compare on held-out data (comma separated)")
+      ->delimiter(',');
+  diag->add_option("--out", dg_out, "also write scans.csv, beams.csv, trajectory.csv here");
+  diag->add_option("--threads", dg_threads, "worker threads")->check(CLI::Range(1, 64));
+
+  auto* report = app.add_subcommand("report", "diagnose a drive and write a self-contained HTML report");
+  std::string rp2_log, rp2_out;
+  std::vector<std::string> rp2_with;
+  report->add_option("LOG", rp2_log, "odolog v1 file")->required();
+  report->add_option("--out", rp2_out, "output directory (report.html and its data)")->required();
+  report->add_option("--with", rp2_with, "effects to add and compare on held-out data")->delimiter(',');
 
   auto* tape = app.add_subcommand("tape", "record one closed-loop drive as a core-replay tape (firmware tests)");
   std::string tape_drive = "diff";
@@ -400,6 +475,38 @@ int main(int argc, char** argv) {
   if (tape->parsed()) {
     return tape_drive == "sync" ? writeTape<SyncDrive>(tape_out, tape_seed, tape_steps, tape_every)
                                 : writeTape<DiffDrive>(tape_out, tape_seed, tape_steps, tape_every);
+  }
+  if (diag->parsed()) return runDiagnose(dg_log, dg_json, dg_out, dg_with, dg_threads, false);
+  if (report->parsed()) {
+    const int rc = runDiagnose(rp2_log, (fs::path(rp2_out) / "diagnose.json").string(), rp2_out, rp2_with, 2, true);
+    if (rc != 0) return rc;
+    const std::string cmd = shellQuote(pythonInterpreter()) + " " + shellQuote(reportScript()) + " " + shellQuote(rp2_out);
+    if (std::system(cmd.c_str()) != 0) {
+      std::fprintf(stderr, "odoerr report: the page could not be made (%s)\n", cmd.c_str());
+      return 1;
+    }
+    std::fprintf(stderr, "odoerr report: wrote %s/report.html\n", rp2_out.c_str());
+    return 0;
+  }
+  if (sim->parsed() && (scenario == "excite" || !sim_effects.empty())) {
+    EffectSimConfig ec;
+    ec.drive = sim_drive;
+    ec.seed = sim_seed;
+    ec.minutes = minutes;
+    std::string err;
+    for (const auto& e : sim_effects) {
+      if (!parseEffectArg(e, &ec, &err)) {
+        std::fprintf(stderr, "odoerr sim: %s\n", err.c_str());
+        return 2;
+      }
+    }
+    std::string text;
+    if (!simulateEffectDrive(ec, &text, &err) || !writeFile(sim_out, text, &err)) {
+      std::fprintf(stderr, "odoerr sim: %s\n", err.c_str());
+      return 1;
+    }
+    std::fprintf(stderr, "odoerr sim: wrote a %.1f-minute %s drive to %s\n", minutes, sim_drive.c_str(), sim_out.c_str());
+    return 0;
   }
   if (sim->parsed()) {
     return sim_drive == "sync" ? writeSimLog<SyncDrive>(sim_out, sim_seed, steps, start)

@@ -1,0 +1,42 @@
+// sim_host: `odoerr diagnose` — does the odometry model explain the measurements, where
+// does it fail, which physical effect is missing, and how much does adding it help on data
+// the fit did not see. docs/diagnostics.md explains every statistic and the decision rules.
+//
+// It runs the firmware's estimator (double precision, with the whole effect catalogue
+// composed in at compile time; effects not under test are held at nominal) over an odolog
+// drive, many times: a baseline, one augmented run and one held run per candidate, a joint
+// run for the information structure, and the held-out fits. Runs are independent and use
+// `threads` worker threads.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "odoerr/sim/odolog.hpp"
+
+namespace odoerr::sim {
+
+struct DiagnoseOptions {
+  std::string out_dir;            ///< CSV outputs for the report ("" = none)
+  std::vector<std::string> with;  ///< effects to add for the held-out comparison
+  int threads = 2;
+  double cycle_m = 0.01;
+  double k0_w = 1e-4;      ///< diff: initial K_w (m)
+  double k0_rho = 1e-3;    ///< sync: initial K_rho (m)
+  double k0_theta = 1e-4;  ///< sync: initial K_theta (rad^2/m)
+  int blocks = 5;          ///< the drive is cut in this many time blocks; 1 and 3 are held out
+  double gap_s = 2.0;      ///< data this close to a held-out block is not used to fit
+  double reanchor_s = 2.0; ///< in held-out blocks one scan (or fix) per this is fused
+};
+
+/// Runs the diagnosis; fills *out with the contract of docs/diagnostics.md. False with
+/// *error naming the problem (unknown effect in `with`, unusable log, unwritable output).
+bool diagnoseOdolog(const Odolog& log, const DiagnoseOptions& opt, nlohmann::ordered_json* out,
+                    std::string* error);
+
+/// The catalogue's effect names, in catalogue order.
+std::vector<std::string> diagnoseEffectNames();
+
+}  // namespace odoerr::sim

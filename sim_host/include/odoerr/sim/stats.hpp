@@ -1,0 +1,59 @@
+// sim_host: the statistics `odoerr diagnose` computes on a replay's innovations: NIS with
+// chi-square bands, windowed NIS, whiteness (Ljung-Box), per-beam residuals, the pose
+// correction decomposed into along-track, cross-track and heading, the OF observables,
+// NEES, the same binned by motion and place, and CUSUM change alarms.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "odoerr/akf.hpp"
+
+namespace odoerr::sim {
+
+/// The name of a beam status in the CSV outputs ("used", "gated", ...).
+const char* statusName(Status s);
+
+/// Chi-square survival function P(X > x) for k degrees of freedom.
+double chiSquareSf(double x, double k);
+/// Chi-square quantile (Wilson-Hilferty; accurate to < 1 % for k >= 3).
+double chiSquareQuantile(double p, double k);
+
+/// One fused scan of a replay, with the motion around it.
+struct ScanRec {
+  double t, dist, x, y, th;  ///< before the update
+  double x1, y1, th1;        ///< after the update
+  double nis_sum, v, w, s_rev, s_signed;  ///< s_signed: the encoders' cumulative travel (wheel angle)
+  int dof;
+  double sum_norm;  ///< sum of nu / sqrt(S) over its predicted beams
+  double nees = -1; ///< pose NEES against truth after the update (-1: no truth)
+};
+/// One predicted beam (gated ones included).
+struct BeamRec {
+  double t;
+  int beam;
+  Status status;
+  double hit_x, hit_y, nu, var;
+};
+struct TrajRec {
+  double t, x, y, th, tx, ty, tth;
+  bool truth;
+};
+
+struct DriveStats {
+  nlohmann::ordered_json tests, bins, cusum;
+  bool consistent = true;
+};
+
+/// Statistics of one replay. obs: the OF's normalised observable residuals per update.
+DriveStats computeStats(const std::vector<ScanRec>& scans, const std::vector<BeamRec>& beams,
+                        const std::vector<std::array<double, 2>>& obs, double wheel_radius);
+
+/// scans.csv, beams.csv and trajectory.csv for the report. False with *error.
+bool writeDiagnoseCsv(const std::string& dir, const std::vector<ScanRec>& scans,
+                      const std::vector<BeamRec>& beams, const std::vector<TrajRec>& traj,
+                      std::string* error);
+
+}  // namespace odoerr::sim
