@@ -1,0 +1,165 @@
+#!/usr/bin/env bash
+# test_report.sh: end-to-end test of tools/report/make_report.py and tests/report/check_render.sh.
+#
+#  (a) make a fixture of odoerr diagnose's output with make_fixture.py (100k beams);
+#  (b) make_report.py writes report.html from it;
+#  (c) check_render.sh passes on it (Chromium decodes every image, >= 5 images);
+#  (d) with one image's data URI corrupted, check_render.sh fails;
+#  (e) make_report.py fails with a message naming the file when diagnose.json is missing,
+#      and likewise for a malformed diagnose.json / scans.csv / beams.csv;
+#  (f) the optional parts may be absent: no truth, heldout null, no alarms, sync drive.
+#
+# Exit 0 all passed; 1 something failed; 77 Chromium is missing (the steps that need no browser
+# still ran and passed). Closes with the line "report: N passed, N failed".
+set -u
+here=$(cd "$(dirname "$0")" && pwd)
+root=$(cd "$here/../.." && pwd)
+PY=${PYTHON:-/usr/bin/python3}
+report="$root/tools/report/make_report.py"
+fixture="$here/make_fixture.py"
+check="$here/check_render.sh"
+
+tmp=$(mktemp -d "${TMPDIR:-/tmp}/test_report.XXXXXX") || exit 1
+trap 'rm -rf "$tmp"' EXIT
+pass=0; fail=0; skipped=0
+ok()  { pass=$((pass + 1)); echo "ok: $*"; }
+bad() { fail=$((fail + 1)); echo "FAIL: $*"; }
+
+# expect_error NAME REGEX DIR: make_report.py on DIR exits 1 with a message matching REGEX.
+expect_error() {
+  local name=$1 regex=$2 dir=$3 out rc
+  out=$("$PY" "$report" "$dir" 2>&1); rc=$?
+  if [ "$rc" -ne 1 ]; then bad "$name: exit $rc, expected 1: $out"
+  elif ! grep -Eq -- "$regex" <<<"$out"; then bad "$name: message does not match /$regex/: $out"
+  else ok "$name: $out"; fi
+}
+
+# (a) fixture
+if "$PY" "$fixture" "$tmp/full" --beams 100000 --seed 1 2>"$tmp/fixture.log"; then
+  ok "fixture: $(cat "$tmp/fixture.log")"
+else
+  bad "fixture: $(cat "$tmp/fixture.log")"; echo "report: $pass passed, $fail failed"; exit 1
+fi
+
+# (b) report
+start=$(date +%s.%N)
+if "$PY" "$report" "$tmp/full" 2>"$tmp/report.log" && [ -s "$tmp/full/report.html" ]; then
+  secs=$(awk -v a="$start" -v b="$(date +%s.%N)" 'BEGIN { printf "%.1f", b - a }')
+  ok "make_report on 100k beams (${secs} s): $(cat "$tmp/report.log")"
+else
+  bad "make_report: $(cat "$tmp/report.log")"
+fi
+page="$tmp/full/report.html"
+if [ -s "$page" ]; then
+  n_img=$(grep -o '<img src="data:image/png;base64,' "$page" | wc -l)
+  if [ "$n_img" -ge 5 ] && ! grep -Eqi '<script|(src|href)="(https?:)?//' "$page"; then
+    ok "self-contained: $n_img embedded PNGs, no script, no external link"
+  else
+    bad "page not self-contained or too few images ($n_img)"
+  fi
+fi
+
+# (c) renders in Chromium
+have_browser=1
+if [ -s "$page" ]; then
+  out=$(bash "$check" "$page" 2>&1); rc=$?
+  if [ "$rc" -eq 77 ]; then have_browser=0; skipped=1; echo "skip: $out"
+  elif [ "$rc" -eq 0 ]; then ok "check_render on the report: $(grep RENDER_OK <<<"$out")"
+  else bad "check_render on the report (exit $rc): $out"; fi
+fi
+
+# (d) a corrupted image must be caught
+if [ "$have_browser" -eq 1 ] && [ -s "$page" ]; then
+  # The third image's PNG signature and header are replaced by bytes that are not a PNG.
+  "$PY" - "$page" "$tmp/broken.html" <<'EOF'
+import sys
+s = open(sys.argv[1], encoding="utf-8").read()
+key = 'src="data:image/png;base64,'
+i = -1
+for _ in range(3):
+    i = s.index(key, i + 1)
+j = i + len(key)
+s = s[:j] + "AAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAA" + s[j + 32:]
+open(sys.argv[2], "w", encoding="utf-8").write(s)
+EOF
+  out=$(bash "$check" "$tmp/broken.html" 2>&1); rc=$?
+  if [ "$rc" -ne 0 ] && [ "$rc" -ne 77 ] && grep -q 'broken=1' <<<"$out"; then
+    ok "check_render fails on a corrupted image (exit $rc): $(grep -m1 FAIL <<<"$out")"
+  else
+    bad "check_render did not fail on a corrupted image (exit $rc): $out"
+  fi
+  # A page with too few images fails too.
+  printf '<!DOCTYPE html><html><body><p>no figures</p></body></html>\n' > "$tmp/empty.html"
+  out=$(bash "$check" "$tmp/empty.html" 2>&1); rc=$?
+  if [ "$rc" -eq 1 ] && grep -q 'only 0 image' <<<"$out"; then ok "check_render fails on a page without images"
+  else bad "check_render on a page without images (exit $rc): $out"; fi
+fi
+
+# (e) missing and malformed inputs
+mkdir -p "$tmp/nojson" && cp "$tmp/full/"*.csv "$tmp/nojson/"
+expect_error "missing diagnose.json" "diagnose\.json.*not found" "$tmp/nojson"
+mkdir -p "$tmp/badjson" && cp "$tmp/full/"*.csv "$tmp/badjson/"
+head -c 300 "$tmp/full/diagnose.json" > "$tmp/badjson/diagnose.json"
+expect_error "truncated diagnose.json" "diagnose\.json: not valid JSON" "$tmp/badjson"
+mkdir -p "$tmp/badkey" && cp "$tmp/full/"*.csv "$tmp/badkey/"
+"$PY" -c 'import json,sys; d=json.load(open(sys.argv[1])); del d["verdict"]; json.dump(d, open(sys.argv[2],"w"))' \
+  "$tmp/full/diagnose.json" "$tmp/badkey/diagnose.json"
+expect_error "diagnose.json without verdict" "diagnose\.json: missing key 'verdict'" "$tmp/badkey"
+mkdir -p "$tmp/badtype" && cp "$tmp/full/"*.csv "$tmp/badtype/"
+"$PY" -c 'import json,sys; d=json.load(open(sys.argv[1])); d["ranking"][2]["bic_gain"]="big"; json.dump(d, open(sys.argv[2],"w"))' \
+  "$tmp/full/diagnose.json" "$tmp/badtype/diagnose.json"
+expect_error "non-numeric bic_gain" "diagnose\.json: 'ranking\[2\]\.bic_gain' should be a number" "$tmp/badtype"
+mkdir -p "$tmp/noscans" && cp "$tmp/full/diagnose.json" "$tmp/full/beams.csv" "$tmp/full/trajectory.csv" "$tmp/noscans/"
+expect_error "missing scans.csv" "scans\.csv.*not found" "$tmp/noscans"
+mkdir -p "$tmp/badscans" && cp "$tmp/full/diagnose.json" "$tmp/full/beams.csv" "$tmp/full/trajectory.csv" "$tmp/badscans/"
+sed '5s/^\([^,]*\),[^,]*,/\1,oops,/' "$tmp/full/scans.csv" > "$tmp/badscans/scans.csv"
+expect_error "non-numeric scans.csv field" "scans\.csv:5: column 'dist_m': 'oops' is not a number" "$tmp/badscans"
+mkdir -p "$tmp/badbeams" && cp "$tmp/full/diagnose.json" "$tmp/full/scans.csv" "$tmp/full/trajectory.csv" "$tmp/badbeams/"
+sed '1s/innovation_m/innov/' "$tmp/full/beams.csv" > "$tmp/badbeams/beams.csv"
+expect_error "beams.csv without innovation_m" "beams\.csv: header lacks column\(s\) innovation_m" "$tmp/badbeams"
+mkdir -p "$tmp/shortrow" && cp "$tmp/full/diagnose.json" "$tmp/full/scans.csv" "$tmp/full/beams.csv" "$tmp/shortrow/"
+sed '7s/,[^,]*$//' "$tmp/full/trajectory.csv" > "$tmp/shortrow/trajectory.csv"
+expect_error "short row in trajectory.csv" "trajectory\.csv:7: 6 fields where the header has 7" "$tmp/shortrow"
+expect_error "not a directory" "not a directory" "$tmp/does-not-exist"
+out=$("$PY" "$report" 2>&1); rc=$?
+if [ "$rc" -eq 2 ]; then ok "no argument: exit 2 (usage)"; else bad "no argument: exit $rc: $out"; fi
+
+# (f) optional parts absent
+"$PY" "$fixture" "$tmp/bare" --beams 8000 --drive sync --no-truth --no-heldout --no-alarms --seed 3 2>/dev/null
+if out=$("$PY" "$report" "$tmp/bare" 2>&1) && grep -q 'No held-out check was run' "$tmp/bare/report.html" \
+   && grep -q 'no CUSUM alarms' "$tmp/bare/report.html" && grep -q 'no truth' "$tmp/bare/report.html"; then
+  ok "sync drive, no truth, heldout null, no alarms: $out"
+  if [ "$have_browser" -eq 1 ]; then
+    out=$(bash "$check" "$tmp/bare/report.html" 2>&1); rc=$?
+    if [ "$rc" -eq 0 ]; then ok "check_render on the bare report: $(grep RENDER_OK <<<"$out")"
+    else bad "check_render on the bare report (exit $rc): $out"; fi
+  fi
+else
+  bad "bare report: $out"
+fi
+# heldout present but its per-scan CSVs missing; empty bins and empty alarms objects; no map.
+mkdir -p "$tmp/partial" && cp "$tmp/full/"{scans,beams,trajectory}.csv "$tmp/partial/"
+"$PY" - "$tmp/full/diagnose.json" "$tmp/partial/diagnose.json" <<'EOF'
+import json, sys
+d = json.load(open(sys.argv[1]))
+d["bins"] = {k: [] for k in d["bins"]}
+d["cusum"] = {"alarms": []}
+d["map"] = {"walls": []}
+d["excitation"] = {"parameters": [], "warnings": []}
+d["tests"]["nees_pose"] = None
+json.dump(d, open(sys.argv[2], "w"))
+EOF
+if out=$("$PY" "$report" "$tmp/partial" 2>&1) && grep -q 'heldout_before.csv / heldout_after.csv are not in' \
+   "$tmp/partial/report.html"; then ok "partial inputs: $out"
+else bad "partial inputs: $out"; fi
+# Header-only CSVs: no scans, no beams.
+mkdir -p "$tmp/empty" && cp "$tmp/full/diagnose.json" "$tmp/empty/"
+for f in scans beams trajectory; do head -n 1 "$tmp/full/$f.csv" > "$tmp/empty/$f.csv"; done
+if out=$("$PY" "$report" "$tmp/empty" 2>&1) && grep -q 'scans.csv has no rows' "$tmp/empty/report.html"; then
+  ok "header-only CSVs: $out"
+else bad "header-only CSVs: $out"; fi
+
+echo "report: $pass passed, $fail failed"
+[ "$fail" -ne 0 ] && exit 1
+[ "$skipped" -ne 0 ] && { echo "report: Chromium missing: render checks skipped"; exit 77; }
+exit 0

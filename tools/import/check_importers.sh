@@ -1,0 +1,186 @@
+#!/usr/bin/env bash
+# check_importers.sh: runs the two dataset importers on the real data and checks what they
+# write. Usage: tools/import/check_importers.sh [--all] [--keep DIR]
+#   --all       every OptiOdom run (148, about a minute) instead of run-01 of each set
+#   --keep DIR  leave the outputs in DIR (default: a temporary folder, removed at the end)
+# The data live beside the project at ../shared/data (from the repository root; falling
+# back to /work/shared/data). When absent (a user's own clone) the script prints
+# "skipped: ../shared/data absent" and exits 77. Exit 0 when every check passes, 1 if not.
+#
+# Checks:
+# - every output passes odolog_check.py (an independent reader of the odolog v1 rules)
+#   together with its physical check: the ticks dead-reckoned with the file's nominal
+#   constants give the mocap path length / net rotation (OptiOdom) or the raw odometry
+#   path, rotation and interval end poses (CARMEN);
+# - each importer twice on the same input gives byte-identical output;
+# - a copy of an OptiOdom run with a UTF-8 byte-order mark converts to the same records;
+# - malformed copies (a non-numeric field, a wrong field count, time going backwards)
+#   make the importer exit 2 with FILE:LINE naming the corrupted line, and leave no output.
+set -u
+here="$(cd "$(dirname "$0")" && pwd)"
+root="$(cd "$here/../.." && pwd)"
+py="${PYTHON:-python3}"
+
+all=0
+keep=""
+while [ $# -gt 0 ]; do
+  case "$1" in
+    --all) all=1 ;;
+    --keep) keep="${2:?--keep needs a folder}"; shift ;;
+    *) echo "usage: $0 [--all] [--keep DIR]" >&2; exit 2 ;;
+  esac
+  shift
+done
+
+data=""
+for d in "$root/../shared/data" /work/shared/data; do
+  if [ -d "$d/optiodom-diff" ] && [ -f "$d/carmen/intel-corrected.log.gz" ]; then data="$(cd "$d" && pwd)"; break; fi
+done
+if [ -z "$data" ]; then
+  echo "skipped: ../shared/data absent"
+  exit 77
+fi
+
+if [ -n "$keep" ]; then
+  mkdir -p "$keep" || exit 2
+  out="$(cd "$keep" && pwd)"
+  scratch="$(mktemp -d)"
+else
+  out="$(mktemp -d)"
+  scratch="$out"
+fi
+cleanup() { if [ -n "$keep" ]; then rm -rf "$scratch"; else rm -rf "$out"; fi; }
+trap cleanup EXIT
+
+opt="$here/optiodom_to_odolog.py"
+car="$here/carmen_to_odolog.py"
+chk="$here/odolog_check.py"
+fails=0
+pass() { echo "ok   $*"; }
+fail() { echo "FAIL $*"; fails=$((fails + 1)); }
+now() { date +%s.%N; }
+secs() { awk -v a="$1" -v b="$2" 'BEGIN { printf "%.2f", b - a }'; }
+size() { stat -c %s "$1"; }
+
+# expect_exit2 WHAT LINE FILE CMD...: CMD must exit 2, name FILE:LINE, and write no --out.
+expect_exit2() {
+  local what="$1" line="$2" file="$3" target="$4"; shift 4
+  rm -f "$target"
+  local msg rc
+  msg="$("$@" 2>&1)"; rc=$?
+  if [ "$rc" -ne 2 ]; then
+    fail "$what: exit $rc, expected 2: $msg"
+  elif ! grep -qF -- "$file:$line:" <<<"$msg"; then
+    fail "$what: the message does not name $file:$line: $msg"
+  elif [ -e "$target" ]; then
+    fail "$what: an output file was left behind"
+  else
+    pass "$what: exit 2: $msg"
+  fi
+}
+
+echo "== data: $data"
+echo "== outputs: $out"
+
+# ---------------------------------------------------------------- OptiOdom
+echo "== OptiOdom"
+if [ "$all" -eq 1 ]; then
+  mapfile -t runs < <(find "$data/optiodom-diff" -name '*_run-*.csv' | sort)
+else
+  mapfile -t runs < <(find "$data/optiodom-diff" -name '*_run-01.csv' | sort)
+fi
+if [ "${#runs[@]}" -eq 0 ]; then fail "no OptiOdom run files under $data/optiodom-diff"; fi
+n_ok=0
+for f in "${runs[@]}"; do
+  name="$(basename "$f" .csv)"
+  o="$out/optiodom-$name.odolog"
+  if ! msg="$("$py" "$opt" "$f" --out "$o" 2>&1)"; then fail "import $name: $msg"; continue; fi
+  if res="$("$py" "$chk" "$o" --optiodom-csv "$f")"; then
+    n_ok=$((n_ok + 1))
+  else
+    fail "check $name:"; echo "$res"
+  fi
+done
+echo "ok   $n_ok of ${#runs[@]} OptiOdom runs imported and checked"
+
+first="${runs[0]:-}"
+if [ -n "$first" ]; then
+  name="$(basename "$first" .csv)"
+  o="$out/optiodom-$name.odolog"
+  t0=$(now); "$py" "$opt" "$first" --out "$scratch/again.odolog" 2>/dev/null; t1=$(now)
+  echo "--   example $name: $(size "$o") bytes, $(wc -l <"$o") lines, import $(secs "$t0" "$t1") s"
+  "$py" "$chk" "$o" --optiodom-csv "$first" | sed 's/^/     /'
+  if cmp -s "$o" "$scratch/again.odolog"; then pass "optiodom: reproducible (byte-identical twice)"
+  else fail "optiodom: two runs on the same input differ"; fi
+
+  # a byte-order mark changes nothing but the provenance lines
+  { printf '\xef\xbb\xbf'; cat "$first"; } >"$scratch/bom.csv"
+  if "$py" "$opt" "$scratch/bom.csv" --out "$scratch/bom.odolog" 2>/dev/null &&
+     cmp -s <(grep -v '^meta source' "$o") <(grep -v '^meta source' "$scratch/bom.odolog"); then
+    pass "optiodom: a UTF-8 BOM is ignored (same records)"
+  else
+    fail "optiodom: the BOM copy converts differently"
+  fi
+
+  # malformed copies: non-numeric field, wrong field count, time going backwards
+  bad="$scratch/bad.csv"
+  sed '57s/^\([^,]*\),[^,]*,/\1,abc,/' "$first" >"$bad"
+  expect_exit2 "optiodom non-numeric x at line 57" 57 "$bad" "$scratch/bad.odolog" \
+    "$py" "$opt" "$bad" --out "$scratch/bad.odolog"
+  sed '100s/$/,1/' "$first" >"$bad"
+  expect_exit2 "optiodom 7 fields at line 100" 100 "$bad" "$scratch/bad.odolog" \
+    "$py" "$opt" "$bad" --out "$scratch/bad.odolog"
+  sed '150s/^[^,]*,/1.0,/' "$first" >"$bad"
+  expect_exit2 "optiodom time backwards at line 150" 150 "$bad" "$scratch/bad.odolog" \
+    "$py" "$opt" "$bad" --out "$scratch/bad.odolog"
+  sed '42s/,\([^,]*\)$/,2.5/' "$first" >"$bad"
+  expect_exit2 "optiodom fractional nL at line 42" 42 "$bad" "$scratch/bad.odolog" \
+    "$py" "$opt" "$bad" --out "$scratch/bad.odolog"
+fi
+
+# ---------------------------------------------------------------- CARMEN
+echo "== CARMEN (Intel Research Lab, corrected)"
+log="$data/carmen/intel-corrected.log.gz"
+o="$out/carmen-intel.odolog"
+t0=$(now)
+if msg="$("$py" "$car" "$log" --out "$o" 2>&1)"; then
+  t1=$(now)
+  echo "--   $msg"
+  echo "--   $(size "$o") bytes, $(wc -l <"$o") lines, import $(secs "$t0" "$t1") s"
+  if res="$("$py" "$chk" "$o" --carmen-log "$log")"; then pass "carmen: checked"; else fail "carmen: check"; fi
+  echo "$res" | sed 's/^/     /'
+  "$py" "$car" "$log" --out "$scratch/again.odolog" 2>/dev/null
+  if cmp -s "$o" "$scratch/again.odolog"; then pass "carmen: reproducible (byte-identical twice)"
+  else fail "carmen: two runs on the same input differ"; fi
+else
+  fail "carmen import: $msg"
+fi
+
+o2="$out/carmen-intel-100-fix10.odolog"
+if msg="$("$py" "$car" "$log" --out "$o2" --max-scans 100 --fix-every 10 2>&1)" &&
+   res="$("$py" "$chk" "$o2" --carmen-log "$log")" &&
+   [ "$(grep -c '^truth' "$o2")" -eq 100 ] && [ "$(grep -c '^pose' "$o2")" -eq 9 ]; then
+  pass "carmen --max-scans 100 --fix-every 10: 100 truth, 9 pose fixes, checked"
+else
+  fail "carmen --max-scans 100 --fix-every 10: $msg"; echo "${res:-}"
+fi
+
+# malformed copies (line numbers count lines of the decompressed text)
+plain="$scratch/intel.log"
+gzip -dc "$log" >"$plain"
+ln_odom=$(awk 'NR > 5000 && $1 == "ODOM" { print NR; exit }' "$plain")
+ln_flaser=$(awk 'NR > 9000 && $1 == "FLASER" { print NR; exit }' "$plain")
+awk -v n="$ln_odom" 'NR == n { $2 = "1.2.3" } { print }' "$plain" | gzip -n >"$scratch/bad.log.gz"
+expect_exit2 "carmen non-numeric ODOM x at line $ln_odom (.gz)" "$ln_odom" "$scratch/bad.log.gz" \
+  "$scratch/bad.odolog" "$py" "$car" "$scratch/bad.log.gz" --out "$scratch/bad.odolog"
+awk -v n="$ln_flaser" 'NR == n { $3 = "" } { print }' "$plain" >"$scratch/bad.log"
+expect_exit2 "carmen FLASER missing a range at line $ln_flaser" "$ln_flaser" "$scratch/bad.log" \
+  "$scratch/bad.odolog" "$py" "$car" "$scratch/bad.log" --out "$scratch/bad.odolog"
+
+echo
+if [ "$fails" -eq 0 ]; then
+  echo "all importer checks passed"
+  exit 0
+fi
+echo "$fails importer check(s) failed"
+exit 1

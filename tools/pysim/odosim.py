@@ -1,0 +1,678 @@
+#!/usr/bin/python3
+"""odosim.py: an independent Python simulator of recorded drives (odolog v1).
+
+Purpose
+-------
+odoerr's diagnostics must work on drives made by *other* simulators of the same physics,
+not only on the drives of its own C++ simulator. This file is such a simulator, written
+from the physics definitions alone (the Martinelli & Siegwart error models, the odolog v1
+spec and docs/effect-catalogue.md); it shares no code with odoerr. It needs only Python 3
+and numpy.
+
+Usage
+-----
+    python3 tools/pysim/odosim.py --out FILE [--drive diff|sync] [--seed N]
+                                  [--minutes M] [--effect NAME=V1[,V2...]]...
+                                  [--noisy-rates]
+    python3 tools/pysim/odosim.py --list-effects
+
+``--effect`` may be repeated; the values are the effect's parameters in the order of the
+catalogue, e.g. ``--effect turn_slip=0.03``, ``--effect laser_mount_xy=0.02,-0.01``,
+``--effect wall_offset=0.05,0,0,0`` (wall_offset takes 1..W values, W = number of walls;
+missing trailing walls get 0). Unknown names, repeated names or wrong value counts are
+an error (exit status 2). Effects that are not named keep their nominal value 0.
+
+The same seed gives the same schedule and the same noise draws whatever effects are
+injected (each random stream has its own generator), so a clean drive and an effect
+drive with the same seed differ by the effect only (plus the controller's response to it).
+
+World
+-----
+A 10 m x 10 m room, walls (0,0)-(10,0)-(10,10)-(0,10), and two interior boxes (one
+1.2 m x 1.2 m on the right, one 0.8 m x 0.8 m near the top-left corner) so that the map
+is not symmetric. All walls are written as ``wall`` records, each polygon counter-
+clockwise, so the left normal of a room wall points into the room and the left normal
+of a box wall points into the box.
+
+Robot and its systematic / non-systematic odometry errors (paper, Section 2)
+---------------------------------------------------------------------------
+diff (default): nominal wheel radius 0.05 m, 4096 ticks/rev, wheelbase 0.5 m.
+    Encoder travel of a wheel in a cycle: rho_e = dticks * 2 pi r / ticks_per_rev.
+    True wheel travel: R = delta_R rho_eR + nu_R, L = delta_L rho_eL + nu_L,
+    nu ~ N(0, K_w |rho_e|) per wheel; rho = (R + L)/2, dtheta = (R - L)/(d delta_d),
+    side = 0. delta_R = 1.01, delta_L = 0.99, delta_d = 1.02, K_w = 2.5e-4 m.
+sync: ticks_per_m = 20000 (translation), ticks_per_rad = 20000 (steering).
+    rho = delta_rho rho_e + nu_rho, dtheta = dtheta_e + E_theta rho_e + nu_theta,
+    nu_rho ~ N(0, K_rho |rho_e|), nu_theta ~ N(0, K_theta |rho_e|);
+    delta_rho = 1.02, E_theta = 0.5 deg/m, K_rho = 1e-4 m, K_theta = 3e-5 rad^2/m.
+    The drift term is E_theta * rho_e with the *signed* encoder travel, as in the
+    paper's eq. (1) and in odoerr's model (docs/paper-notes.md): the drift reverses when
+    the robot drives backwards.
+These "truth parameters" are written as ``meta truth_param NAME VALUE``.
+
+Encoders count cumulative integer ticks (floor of the continuous cumulative count, so
+the fractional remainder is carried, never lost); the truth of a cycle is drawn from the
+quantised increment the log contains, which is exactly the model the estimator assumes.
+
+Motion effects (docs/effect-catalogue.md), applied in the catalogue's order to the
+drive model's increment (rho, dtheta, side) before the pose moves:
+    turn_slip k          side   += k v w rho
+    rotation_slip k      dtheta *= 1 - k |w|
+    speed_scale k        rho    *= 1 + k |v|
+    wheel_eccentricity a,b  rho *= 1 + a cos(phi) + b sin(phi), phi = s_enc / r_wheel
+                            (s_enc: the encoders' cumulative signed travel, nominal constants)
+    backlash b           rho    *= 1 - b / 0.05   while s_rev < 0.05 m
+    region_scale c0..c8  rho    *= 1 + c_j (3x3 grid over the map's bounding box)
+    radius_drift g       rho    *= 1 + g s_abs / 100
+    turn_noise q         dtheta += N(0, q |dtheta|)
+with v = rho/dt, w = dtheta/dt (dt = 0.01 s). Where the catalogue leaves a choice, this
+simulator takes the following readings (the parent project may want to pin them down):
+  * The rates and magnitudes an effect depends on (v, w, rho in turn_slip, |dtheta| in
+    turn_noise) and the path statistics s_abs, s_signed, s_rev are those of the drive
+    model's NOISE-FREE increment (the encoder travel through the true delta parameters,
+    the mean of eq. 1-4), carried through the earlier effects. Each effect's factor or
+    term is then applied to the truth's increment, which includes the sampled noise.
+    Reason: the per-cycle noise of the paper's model is large at 100 Hz (about 0.3 rad/s
+    of "turn rate" per cycle at 0.5 m/s), so evaluating |w| on the noisy draw would bias
+    rotation_slip by tens of percent and change the heading noise on straights, and
+    accumulating the noisy rho would random-walk the eccentricity phase by radians over
+    100 m; an estimator can only ever use the mean. ``--noisy-rates`` selects the literal
+    reading instead (everything evaluated on the noisy increment); the choice is written
+    as ``meta effect_rates mean|noisy``.
+  * s_abs, s_signed and s_rev are the values at the start of the cycle (previous cycles
+    only). A reversal is a cycle whose rho has the opposite sign of the last non-zero rho;
+    s_rev is 0 for that cycle and infinite before the first reversal.
+  * region_scale uses the true position at the start of the cycle; the map's bounding box
+    is that of the walls as written (the nominal map).
+  * With the catalogue's order, v and w are the same before and after the earlier effects
+    (turn_slip changes only side, rotation_slip only dtheta).
+The pose then moves by the mid-point rule:
+    x += rho cos(theta + dtheta/2) - side sin(theta + dtheta/2)
+    y += rho sin(theta + dtheta/2) + side cos(theta + dtheta/2),  theta += dtheta.
+
+Measurement effects change the ranges:
+    range_bias b         r = r_true + b
+    range_scale s        r = r_true (1 + s)          (applied after range_bias)
+    laser_mount_xy dx,dy the laser sits at (mount_x + dx, mount_y + dy)
+    laser_mount_yaw dpsi the laser's yaw is mount_yaw + dpsi
+    scan_latency tau     the scan stamped t is cast from the true pose at t - tau
+                         (linear interpolation of the 100 Hz truth, clamped to the drive)
+    wall_offset o_1..o_W wall w lies o_w along its left unit normal
+Ray casting is exact against the true (possibly offset) segments; Gaussian range noise
+sigma = 0.03 m is added last; no return (or a true range beyond range_max) gives nan.
+
+Sensors and records
+-------------------
+Encoders and truth at 100 Hz, a 36-beam laser at 10 Hz (angle_min -pi, step 2 pi/36,
+range_max 20 m, sigma 0.03 m, mount (0.1, 0, 0)). Records at equal times are written enc,
+scan, truth. ``init`` is the true start pose with sigmas 0.01.
+
+Trajectory
+----------
+The reference path is a closed figure-eight with two lobes of different radii (1.4 m
+turning right, 1.0 m turning left) joined by two 3.2 m straights that cross between them
+(the internal tangents of the two circles). A seeded schedule alternates forward
+stretches (6-12 s, 0.2-0.8 m/s, sometimes a change of speed) with backward stretches
+(1.5-3.5 s, 0.2-0.5 m/s) along the same path, with acceleration limits, so there are
+several reversals per minute and turns of both signs in both directions of travel. The
+path keeps more than 1.5 m from every wall and box.
+
+Steering: the wheels follow the path curvature at the commanded (open-loop) progress; a
+weak correction of the curvature, u = -k1 e_y - sign(v) k2 e_theta (k1 = 0.25 1/m^2,
+k2 = 1 1/m), is recomputed only once per second from the TRUE pose (projection onto the
+path). There is no high-rate feedback on a noisy pose, so the encoder inputs do not
+correlate with the process noise the laser has not yet seen.
+"""
+
+from __future__ import annotations
+
+import argparse
+import bisect
+import math
+import sys
+import time
+
+import numpy as np
+
+# ---------------------------------------------------------------------------
+# Fixed set-up
+# ---------------------------------------------------------------------------
+
+DT = 0.01                 # encoder / truth period (s)
+SCAN_EVERY = 10           # one scan every 10 encoder cycles (10 Hz)
+
+# diff drive: nominal constants and the truth's systematic / non-systematic errors
+WHEEL_RADIUS = 0.05
+TICKS_PER_REV = 4096
+WHEELBASE = 0.5
+DIFF_TRUTH = {"delta_R": 1.01, "delta_L": 0.99, "delta_d": 1.02, "K_w": 2.5e-4}
+
+# sync drive
+TICKS_PER_M = 20000
+TICKS_PER_RAD = 20000
+SYNC_TRUTH = {"delta_rho": 1.02, "E_theta": math.radians(0.5), "K_rho": 1e-4,
+              "K_theta": 3e-5}
+
+# laser
+N_BEAMS = 36
+ANGLE_MIN = -math.pi
+ANGLE_INC = 2.0 * math.pi / N_BEAMS
+RANGE_MAX = 20.0
+RANGE_SIGMA = 0.03
+MOUNT = (0.1, 0.0, 0.0)   # x, y, yaw in the robot frame
+
+# Map: each polygon counter-clockwise; walls are consecutive vertex pairs.
+ROOM = [(0.0, 0.0), (10.0, 0.0), (10.0, 10.0), (0.0, 10.0)]
+BOX_A = [(7.0, 6.0), (8.2, 6.0), (8.2, 7.2), (7.0, 7.2)]
+BOX_B = [(1.0, 8.0), (1.8, 8.0), (1.8, 8.8), (1.0, 8.8)]
+
+
+def polygon_walls(poly):
+    """Closed polygon -> list of segments (x1, y1, x2, y2)."""
+    return [(*poly[i], *poly[(i + 1) % len(poly)]) for i in range(len(poly))]
+
+
+WALLS = polygon_walls(ROOM) + polygon_walls(BOX_A) + polygon_walls(BOX_B)
+
+# Controller
+K1 = 0.25                 # 1/m^2, lateral error gain
+K2 = 1.0                  # 1/m, heading error gain
+U_MAX = 0.5               # 1/m, limit of the curvature correction
+CONTROL_EVERY = 100       # cycles between corrections (1 Hz)
+ACCEL = 0.6               # m/s^2, limit of the commanded speed change
+
+# ---------------------------------------------------------------------------
+# Effects: name -> (number of parameters or None for 1..len(WALLS), kind, summary)
+# ---------------------------------------------------------------------------
+
+EFFECTS = {
+    "turn_slip": (1, "motion", "k (s^2/m): side += k v w rho"),
+    "rotation_slip": (1, "motion", "k (s): dtheta *= 1 - k |w|"),
+    "speed_scale": (1, "motion", "k (s/m): rho *= 1 + k |v|"),
+    "wheel_eccentricity": (2, "motion", "a, b: rho *= 1 + a cos(phi) + b sin(phi)"),
+    "backlash": (1, "motion", "b (m): rho *= 1 - b/0.05 while s_rev < 0.05 m"),
+    "region_scale": (9, "motion", "c0..c8: rho *= 1 + c_j on a 3x3 grid"),
+    "radius_drift": (1, "motion", "g (per 100 m): rho *= 1 + g s_abs / 100"),
+    "turn_noise": (1, "motion", "q (rad^2/rad): dtheta += N(0, q |dtheta|)"),
+    "range_bias": (1, "measurement", "b (m): r = r_true + b"),
+    "range_scale": (1, "measurement", "s: r = r_true (1 + s)"),
+    "laser_mount_xy": (2, "measurement", "dx, dy (m): laser mount offset"),
+    "laser_mount_yaw": (1, "measurement", "dpsi (rad): laser mount yaw offset"),
+    "scan_latency": (1, "measurement", "tau (s): scan stamped t taken at t - tau"),
+    "wall_offset": (None, "measurement",
+                    "o_1..o_W (m): wall w moved o_w along its left normal"),
+}
+
+
+def parse_effects(specs, parser):
+    """['name=v1,v2', ...] -> {name: [floats]}; errors go through parser.error (exit 2)."""
+    effects = {}
+    for spec in specs:
+        if "=" not in spec:
+            parser.error(f"--effect {spec!r}: expected NAME=V1[,V2...]")
+        name, _, vals = spec.partition("=")
+        name = name.strip()
+        if name not in EFFECTS:
+            parser.error(f"--effect: unknown effect {name!r}; known: "
+                         + ", ".join(EFFECTS))
+        if name in effects:
+            parser.error(f"--effect: {name} given twice")
+        try:
+            values = [float(v) for v in vals.split(",")]
+        except ValueError:
+            parser.error(f"--effect {spec!r}: values must be numbers separated by commas")
+        if not all(math.isfinite(v) for v in values):
+            parser.error(f"--effect {spec!r}: values must be finite")
+        count = EFFECTS[name][0]
+        if count is None:
+            if not 1 <= len(values) <= len(WALLS):
+                parser.error(f"--effect {name}: takes 1..{len(WALLS)} values "
+                             f"(one per wall), got {len(values)}")
+            values = values + [0.0] * (len(WALLS) - len(values))
+        elif len(values) != count:
+            parser.error(f"--effect {name}: takes {count} value(s), got {len(values)}")
+        if name == "turn_noise" and values[0] < 0:
+            parser.error("--effect turn_noise: q must be >= 0 (it is a variance rate)")
+        effects[name] = values
+    return effects
+
+
+# ---------------------------------------------------------------------------
+# Reference path: figure-eight from two circles and their internal tangents
+# ---------------------------------------------------------------------------
+
+class Path:
+    """A closed path of constant-curvature pieces, parameterised by arc length s.
+
+    Lower circle C1 (radius R1, driven clockwise), upper circle C2 (radius R2, counter-
+    clockwise). The internal tangents cross at P, which divides C1C2 in the ratio R1:R2;
+    with d = |C1C2| each tangent makes the angle alpha, sin(alpha) = (R1 + R2)/d, with
+    the line C1C2, and each lobe is an arc of pi + 2 alpha.
+    """
+
+    def __init__(self, c1=(4.3, 3.2), r1=1.4, c2=(4.3, 7.2), r2=1.0):
+        d = math.hypot(c2[0] - c1[0], c2[1] - c1[1])
+        assert abs(c2[0] - c1[0]) < 1e-12, "the construction assumes C2 straight above C1"
+        alpha = math.asin((r1 + r2) / d)
+        d1 = d * r1 / (r1 + r2)
+        d2 = d * r2 / (r1 + r2)
+        l1 = math.sqrt(d1 * d1 - r1 * r1)     # P to the tangent point on C1
+        l2 = math.sqrt(d2 * d2 - r2 * r2)     # P to the tangent point on C2
+        lobe = math.pi + 2.0 * alpha
+        # (length, curvature) pieces starting at P, heading pi/2 - alpha
+        self.pieces = [(l2, 0.0), (r2 * lobe, 1.0 / r2), (l2 + l1, 0.0),
+                       (r1 * lobe, -1.0 / r1), (l1, 0.0)]
+        self.start = (c1[0], c1[1] + d1, math.pi / 2.0 - alpha)
+        # start pose of each piece
+        self.bounds = [0.0]
+        self.piece_start = []
+        x, y, th = self.start
+        for length, kappa in self.pieces:
+            self.piece_start.append((x, y, th))
+            x, y, th = self._advance(x, y, th, kappa, length)
+            self.bounds.append(self.bounds[-1] + length)
+        self.length = self.bounds[-1]
+        end_err = math.hypot(x - self.start[0], y - self.start[1])
+        assert end_err < 1e-9 and abs(th - self.start[2]) < 1e-9, "path does not close"
+        # dense samples (1 cm) for the projection
+        n = int(math.ceil(self.length / 0.01))
+        self.s_grid = np.linspace(0.0, self.length, n, endpoint=False)
+        poses = np.array([self.pose(s) for s in self.s_grid])
+        self.x_grid, self.y_grid = poses[:, 0], poses[:, 1]
+
+    @staticmethod
+    def _advance(x, y, th, kappa, u):
+        """Pose after arc length u on a piece of curvature kappa."""
+        if kappa == 0.0:
+            return x + u * math.cos(th), y + u * math.sin(th), th
+        th2 = th + kappa * u
+        return (x + (math.sin(th2) - math.sin(th)) / kappa,
+                y - (math.cos(th2) - math.cos(th)) / kappa, th2)
+
+    def _piece(self, s):
+        s = s % self.length
+        i = min(bisect.bisect_right(self.bounds, s) - 1, len(self.pieces) - 1)
+        return i, s - self.bounds[i]
+
+    def curvature(self, s):
+        return self.pieces[self._piece(s)[0]][1]
+
+    def pose(self, s):
+        i, u = self._piece(s)
+        x, y, th = self.piece_start[i]
+        return self._advance(x, y, th, self.pieces[i][1], u)
+
+    def project(self, x, y, s_guess, window=1.5):
+        """Arc length (unwrapped, near s_guess) of the path point nearest to (x, y)."""
+        ds = (self.s_grid - s_guess + self.length / 2.0) % self.length - self.length / 2.0
+        near = np.abs(ds) <= window
+        d2 = (self.x_grid - x) ** 2 + (self.y_grid - y) ** 2
+        d2 = np.where(near, d2, np.inf)
+        k = int(np.argmin(d2))
+        s = s_guess + ds[k]
+        # refine along the local tangent
+        px, py, pth = self.pose(s)
+        s += (x - px) * math.cos(pth) + (y - py) * math.sin(pth)
+        return s
+
+
+# ---------------------------------------------------------------------------
+# Speed schedule
+# ---------------------------------------------------------------------------
+
+def speed_schedule(rng, duration):
+    """Seeded list of (t_end, target_speed) phases covering [0, duration]."""
+    phases = []
+    t = 0.0
+    while t < duration:
+        # forward stretch, sometimes in two parts at different speeds
+        forward = rng.uniform(6.0, 12.0)
+        parts = 2 if rng.random() < 0.4 else 1
+        for _ in range(parts):
+            t += forward / parts
+            phases.append((t, rng.uniform(0.2, 0.8)))
+        if rng.random() < 0.3:                 # a short stop before the reversal
+            t += rng.uniform(0.3, 1.0)
+            phases.append((t, 0.0))
+        t += rng.uniform(1.5, 3.5)             # backward stretch
+        phases.append((t, -rng.uniform(0.2, 0.5)))
+    return phases
+
+
+# ---------------------------------------------------------------------------
+# Motion simulation
+# ---------------------------------------------------------------------------
+
+def simulate_motion(drive, n_steps, effects, path, rng_sched, rng_noise, rng_turn,
+                    noisy_rates=False):
+    """Run the drive. Returns (enc counts (n+1, 2) int64, truth (n+1, 3) with theta
+    unwrapped)."""
+    schedule = speed_schedule(rng_sched, n_steps * DT + 1.0)
+    sched_t = [p[0] for p in schedule]
+
+    # noise draws, one stream per purpose (independent of the effects chosen)
+    std_normals = rng_noise.standard_normal((n_steps, 2)).tolist()
+    turn_normals = rng_turn.standard_normal(n_steps).tolist()
+
+    # effect parameters (0 = nominal)
+    turn_slip = effects.get("turn_slip", [0.0])[0]
+    rot_slip = effects.get("rotation_slip", [0.0])[0]
+    speed_k = effects.get("speed_scale", [0.0])[0]
+    ecc_a, ecc_b = effects.get("wheel_eccentricity", [0.0, 0.0])
+    backlash = effects.get("backlash", [0.0])[0]
+    region = effects.get("region_scale", None)
+    drift_g = effects.get("radius_drift", [0.0])[0]
+    turn_q = effects.get("turn_noise", [0.0])[0]
+    r_wheel = WHEEL_RADIUS  # param wheel_radius_m for diff; 0.05 for sync (no param)
+
+    # map bounding box for region_scale (of the map as written)
+    wx = [w[0] for w in WALLS] + [w[2] for w in WALLS]
+    wy = [w[1] for w in WALLS] + [w[3] for w in WALLS]
+    bx0, bx1, by0, by1 = min(wx), max(wx), min(wy), max(wy)
+
+    if drive == "diff":
+        m_per_tick = 2.0 * math.pi * WHEEL_RADIUS / TICKS_PER_REV
+        tp = DIFF_TRUTH
+    else:
+        tp = SYNC_TRUTH
+
+    enc = np.zeros((n_steps + 1, 2), dtype=np.int64)
+    truth = np.zeros((n_steps + 1, 3))
+    x, y, th = path.start
+    truth[0] = (x, y, th)
+
+    cum_a = cum_b = 0.0          # continuous cumulative counts
+    cnt_a = cnt_b = 0            # quantised cumulative counts
+    v_cmd = 0.0                  # commanded speed (ramped)
+    s_path = 0.0                 # commanded progress along the path (unwrapped)
+    e_y = e_th = 0.0             # errors sampled at the last correction
+    s_abs = s_signed = s_enc = 0.0
+    s_rev = math.inf
+    last_sign = 0
+    phase = 0
+
+    for k in range(n_steps):
+        t = k * DT
+        # --- low-rate correction from the TRUE pose -------------------------------
+        if k % CONTROL_EVERY == 0:
+            s_path = path.project(x, y, s_path)
+            px, py, pth = path.pose(s_path)
+            e_y = -(x - px) * math.sin(pth) + (y - py) * math.cos(pth)
+            e_th = (th - pth + math.pi) % (2.0 * math.pi) - math.pi
+        # --- commanded speed, ramped towards the phase's target -------------------
+        while phase < len(schedule) - 1 and t >= sched_t[phase]:
+            phase += 1
+        target = schedule[phase][1]
+        v_cmd += max(-ACCEL * DT, min(ACCEL * DT, target - v_cmd))
+        rho_cmd = v_cmd * DT
+        sgn = 1.0 if v_cmd >= 0.0 else -1.0
+        u = max(-U_MAX, min(U_MAX, -K1 * e_y - sgn * K2 * e_th))
+        kappa = path.curvature(s_path + 0.5 * rho_cmd) + u
+        dth_cmd = kappa * rho_cmd
+        s_path += rho_cmd
+
+        # --- encoders (nominal model turns the command into counts) ---------------
+        if drive == "diff":
+            cum_a += (rho_cmd + 0.5 * WHEELBASE * dth_cmd) / m_per_tick   # right
+            cum_b += (rho_cmd - 0.5 * WHEELBASE * dth_cmd) / m_per_tick   # left
+        else:
+            cum_a += rho_cmd * TICKS_PER_M
+            cum_b += dth_cmd * TICKS_PER_RAD
+        new_a, new_b = math.floor(cum_a), math.floor(cum_b)
+        da, db = new_a - cnt_a, new_b - cnt_b
+        cnt_a, cnt_b = new_a, new_b
+        enc[k + 1] = (cnt_a, cnt_b)
+
+        # --- truth increment from the drive model (paper eq. 1-4) -----------------
+        # (rho_m, dth_m) is the drive model's noise-free increment (mean), (rho, dth)
+        # the truth's increment with the sampled non-systematic noise.
+        n1, n2 = std_normals[k]
+        if drive == "diff":
+            er, el = da * m_per_tick, db * m_per_tick
+            mr, ml = tp["delta_R"] * er, tp["delta_L"] * el
+            wr = mr + math.sqrt(tp["K_w"] * abs(er)) * n1
+            wl = ml + math.sqrt(tp["K_w"] * abs(el)) * n2
+            base = WHEELBASE * tp["delta_d"]
+            rho_m, dth_m = 0.5 * (mr + ml), (mr - ml) / base
+            enc_travel = 0.5 * (er + el)
+            rho, dth = 0.5 * (wr + wl), (wr - wl) / base
+        else:
+            erho, eth = da / TICKS_PER_M, db / TICKS_PER_RAD
+            rho_m = tp["delta_rho"] * erho
+            enc_travel = erho
+            dth_m = eth + tp["E_theta"] * erho
+            rho = rho_m + math.sqrt(tp["K_rho"] * abs(erho)) * n1
+            dth = dth_m + math.sqrt(tp["K_theta"] * abs(erho)) * n2
+        side = side_m = 0.0
+        if noisy_rates:                      # literal reading: rates from the noisy draw
+            rho_m, dth_m = rho, dth
+
+        # path statistics: values at the start of the cycle; a reversal resets s_rev
+        sign = (rho_m > 0.0) - (rho_m < 0.0)
+        if sign != 0 and last_sign != 0 and sign != last_sign:
+            s_rev = 0.0
+        travel = rho_m
+
+        # --- motion effects, in the catalogue's order ------------------------------
+        # Each effect's factor or term is evaluated on the running noise-free increment
+        # (rho_m, dth_m, side_m) and applied to it and to the truth's increment alike.
+        if turn_slip:
+            add = turn_slip * (rho_m / DT) * (dth_m / DT) * rho_m
+            side += add
+            side_m += add
+        if rot_slip:
+            f = 1.0 - rot_slip * abs(dth_m / DT)
+            dth *= f
+            dth_m *= f
+        f = 1.0                              # product of the translation factors
+        if speed_k:
+            f *= 1.0 + speed_k * abs(rho_m / DT)
+        if ecc_a or ecc_b:
+            phi = s_enc / r_wheel
+            f *= 1.0 + ecc_a * math.cos(phi) + ecc_b * math.sin(phi)
+        if backlash and s_rev < 0.05:
+            f *= 1.0 - backlash / 0.05
+        if region is not None:
+            col = min(2, max(0, int(math.floor(3.0 * (x - bx0) / (bx1 - bx0)))))
+            row = min(2, max(0, int(math.floor(3.0 * (y - by0) / (by1 - by0)))))
+            f *= 1.0 + region[3 * row + col]
+        if drift_g:
+            f *= 1.0 + drift_g * s_abs / 100.0
+        rho *= f
+        rho_m *= f
+        if turn_q:
+            dth += math.sqrt(turn_q * abs(dth_m)) * turn_normals[k]
+
+        # update the statistics with this cycle's drive-model travel
+        s_abs += abs(travel)
+        s_signed += travel
+        s_enc += enc_travel
+        s_rev += abs(travel)
+        if sign != 0:
+            last_sign = sign
+
+        # --- mid-point pose rule ----------------------------------------------------
+        mid = th + 0.5 * dth
+        c, s = math.cos(mid), math.sin(mid)
+        x += rho * c - side * s
+        y += rho * s + side * c
+        th += dth
+        truth[k + 1] = (x, y, th)
+
+    return enc, truth
+
+
+# ---------------------------------------------------------------------------
+# Laser
+# ---------------------------------------------------------------------------
+
+def true_walls(effects):
+    """Wall segments as they really are (wall_offset applied), shape (W, 4)."""
+    w = np.array(WALLS, dtype=float)
+    off = effects.get("wall_offset")
+    if off is not None:
+        dx, dy = w[:, 2] - w[:, 0], w[:, 3] - w[:, 1]
+        length = np.hypot(dx, dy)
+        nx, ny = -dy / length, dx / length
+        o = np.asarray(off)
+        w = w + np.stack([o * nx, o * ny, o * nx, o * ny], axis=1)
+    return w
+
+
+def cast_rays(ox, oy, ang, walls):
+    """Vectorised ray casting. ox, oy: (S,), ang: (S, B) world beam angles,
+    walls: (W, 4). Returns (S, B) ranges, inf where no wall is hit."""
+    dx, dy = np.cos(ang)[..., None], np.sin(ang)[..., None]          # (S, B, 1)
+    ax, ay = walls[:, 0], walls[:, 1]                                  # (W,)
+    ex, ey = walls[:, 2] - ax, walls[:, 3] - ay
+    qx = ax - ox[:, None, None]                                        # (S, 1, W)
+    qy = ay - oy[:, None, None]
+    den = dx * ey - dy * ex                                            # (S, B, W)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        r = (qx * ey - qy * ex) / den
+        u = (qx * dy - qy * dx) / den
+    hit = (np.abs(den) > 1e-12) & (r > 1e-9) & (u >= 0.0) & (u <= 1.0)
+    return np.where(hit, r, np.inf).min(axis=2)
+
+
+def simulate_scans(truth, n_steps, effects, rng_scan):
+    """Scan times (S,) and ranges (S, B) with nan for no return."""
+    k_scan = np.arange(SCAN_EVERY, n_steps + 1, SCAN_EVERY)
+    t_scan = k_scan * DT
+    t_truth = np.arange(n_steps + 1) * DT
+    tau = effects.get("scan_latency", [0.0])[0]
+    t_take = np.clip(t_scan - tau, 0.0, t_truth[-1])
+    x = np.interp(t_take, t_truth, truth[:, 0])
+    y = np.interp(t_take, t_truth, truth[:, 1])
+    th = np.interp(t_take, t_truth, truth[:, 2])         # theta is unwrapped
+
+    dmx, dmy = effects.get("laser_mount_xy", [0.0, 0.0])
+    dpsi = effects.get("laser_mount_yaw", [0.0])[0]
+    mx, my, myaw = MOUNT[0] + dmx, MOUNT[1] + dmy, MOUNT[2] + dpsi
+    c, s = np.cos(th), np.sin(th)
+    ox = x + c * mx - s * my
+    oy = y + s * mx + c * my
+    beams = myaw + ANGLE_MIN + ANGLE_INC * np.arange(N_BEAMS)
+    ang = th[:, None] + beams[None, :]
+
+    r_true = cast_rays(ox, oy, ang, true_walls(effects))
+    r = r_true + effects.get("range_bias", [0.0])[0]
+    r = r * (1.0 + effects.get("range_scale", [0.0])[0])
+    r = r + RANGE_SIGMA * rng_scan.standard_normal(r.shape)
+    r[~np.isfinite(r_true) | (r_true > RANGE_MAX) | (r <= 0.0) | (r > RANGE_MAX)] = np.nan
+    return k_scan, r
+
+
+def min_clearance(truth):
+    """Smallest distance of the true path to any (nominal) wall, m."""
+    p = truth[:, :2]
+    w = np.array(WALLS)
+    a, e = w[:, :2], w[:, 2:] - w[:, :2]
+    rel = p[:, None, :] - a[None, :, :]
+    u = np.clip((rel * e).sum(-1) / (e * e).sum(-1), 0.0, 1.0)
+    d = rel - u[..., None] * e[None]
+    return float(np.sqrt((d * d).sum(-1)).min())
+
+
+# ---------------------------------------------------------------------------
+# Output
+# ---------------------------------------------------------------------------
+
+def write_log(fname, drive, seed, minutes, effects, enc, truth, k_scan, ranges,
+              noisy_rates):
+    out = ["odolog 1",
+           f"meta source odosim.py seed={seed}",
+           f"meta drive_minutes {minutes!r}",
+           "meta note figure-eight with reversals; 1 Hz steering correction on the truth",
+           "meta effect_rates " + ("noisy" if noisy_rates else "mean"),
+           f"drive {drive}"]
+    if drive == "diff":
+        out += [f"param wheel_radius_m {WHEEL_RADIUS!r}",
+                f"param ticks_per_rev {TICKS_PER_REV}",
+                f"param wheelbase_m {WHEELBASE!r}"]
+        tp = DIFF_TRUTH
+    else:
+        out += [f"param ticks_per_m {TICKS_PER_M}", f"param ticks_per_rad {TICKS_PER_RAD}"]
+        tp = SYNC_TRUTH
+    out += [f"meta truth_param {k} {v!r}" for k, v in tp.items()]
+    for name, vals in effects.items():
+        out.append(f"meta truth_effect {name} " + " ".join(repr(float(v)) for v in vals))
+    out.append(f"laser {N_BEAMS} {ANGLE_MIN!r} {ANGLE_INC!r} {RANGE_MAX!r} "
+               f"{RANGE_SIGMA!r} {MOUNT[0]!r} {MOUNT[1]!r} {MOUNT[2]!r}")
+    out += ["wall " + " ".join(repr(float(c)) for c in w) for w in WALLS]
+    x0, y0, th0 = truth[0]
+    out.append(f"init {x0!r} {y0!r} {th0!r} 0.01 0.01 0.01")
+
+    # data: per cycle enc, (scan), truth
+    theta = (truth[:, 2] + math.pi) % (2.0 * math.pi) - math.pi
+    scan_lines = {}
+    for k, row in zip(k_scan, ranges):
+        scan_lines[int(k)] = f"scan {k * DT:.2f} " + " ".join(
+            "nan" if not math.isfinite(r) else f"{r:.6f}" for r in row)
+    for k in range(len(enc)):
+        t = f"{k * DT:.2f}"
+        out.append(f"enc {t} {enc[k, 0]} {enc[k, 1]}")
+        if k in scan_lines:
+            out.append(scan_lines[k])
+        out.append(f"truth {t} {truth[k, 0]:.9f} {truth[k, 1]:.9f} {theta[k]:.9f}")
+    with open(fname, "w", encoding="utf-8") as f:
+        f.write("\n".join(out) + "\n")
+
+
+# ---------------------------------------------------------------------------
+# Main
+# ---------------------------------------------------------------------------
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(
+        description="Independent odolog v1 drive simulator with injectable effects "
+                    "(see the module docstring for the physics).")
+    ap.add_argument("--out", help="output odolog file")
+    ap.add_argument("--drive", choices=["diff", "sync"], default="diff")
+    ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--minutes", type=float, default=4.0)
+    ap.add_argument("--effect", action="append", default=[], metavar="NAME=V1[,V2...]",
+                    help="inject an effect (repeatable); see --list-effects")
+    ap.add_argument("--noisy-rates", action="store_true",
+                    help="evaluate the effects' v, w, |dtheta| and path statistics on the "
+                         "noisy truth increment (literal reading) instead of the drive "
+                         "model's noise-free increment")
+    ap.add_argument("--list-effects", action="store_true",
+                    help="list the effects and their parameters, then exit")
+    args = ap.parse_args(argv)
+
+    if args.list_effects:
+        for name, (n, kind, desc) in EFFECTS.items():
+            count = f"1..{len(WALLS)}" if n is None else str(n)
+            print(f"{name:20s} {kind:12s} {count:6s} {desc}")
+        return 0
+    if not args.out:
+        ap.error("--out FILE is required")
+    if not (args.minutes > 0.0 and math.isfinite(args.minutes)):
+        ap.error("--minutes must be positive")
+    if args.seed < 0:
+        ap.error("--seed must be >= 0")
+    effects = parse_effects(args.effect, ap)
+
+    t0 = time.perf_counter()
+    n_steps = int(round(args.minutes * 60.0 / DT))
+    path = Path()
+    rng_sched, rng_noise, rng_turn, rng_scan = (
+        np.random.default_rng([args.seed, i]) for i in range(4))
+    enc, truth = simulate_motion(args.drive, n_steps, effects, path,
+                                 rng_sched, rng_noise, rng_turn, args.noisy_rates)
+    k_scan, ranges = simulate_scans(truth, n_steps, effects, rng_scan)
+    write_log(args.out, args.drive, args.seed, args.minutes, effects, enc, truth,
+              k_scan, ranges, args.noisy_rates)
+    clear = min_clearance(truth)
+    if clear <= 1.0:
+        print(f"odosim: warning: the robot came within {clear:.2f} m of a wall",
+              file=sys.stderr)
+    print(f"odosim: wrote {args.out}: {args.drive}, {n_steps * DT:.0f} s, "
+          f"{len(k_scan)} scans, min wall clearance {clear:.2f} m, "
+          f"{time.perf_counter() - t0:.2f} s")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
