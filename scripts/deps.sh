@@ -12,7 +12,8 @@ PACKAGES=(
 )
 # Target build and emulation (the test command): bash scripts/deps.sh --target
 if [ "${1:-}" = "--target" ]; then
-  PACKAGES+=(gcc-arm-none-eabi libnewlib-arm-none-eabi libstdc++-arm-none-eabi-dev qemu-system-arm)
+  PACKAGES+=(gcc-arm-none-eabi libnewlib-arm-none-eabi libstdc++-arm-none-eabi-dev qemu-system-arm
+            chromium)  # the report's render test (headless)
 fi
 
 missing=()

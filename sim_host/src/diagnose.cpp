@@ -163,10 +163,13 @@ class Engine {
     buildEvents();
     t0_ = events_.front().t;
     t1_ = events_.back().t;
-    for (int b = 1; b < opt_.blocks; b += 2) {
-      if (b == opt_.blocks - 1) break;  // keep the last block for fitting
-      const double w = (t1_ - t0_) / opt_.blocks;
-      heldout_.push_back({t0_ + b * w, t0_ + (b + 1) * w});
+    // Held-out blocks: short windows spread evenly over the drive (the fit dead-reckons
+    // through a block and its gaps, so a block must be short enough to relocalise after).
+    const double period = (t1_ - t0_) / opt_.blocks;
+    for (int b = 0; b < opt_.blocks; ++b) {
+      const double mid = t0_ + (b + 0.5) * period;
+      if (mid - 0.5 * opt_.block_s - opt_.gap_s <= t0_ + 10.0) continue;  // let the fit start first
+      heldout_.push_back({mid - 0.5 * opt_.block_s, mid + 0.5 * opt_.block_s});
     }
     return true;
   }

@@ -26,9 +26,10 @@ struct DiagnoseOptions {
   double k0_w = 1e-4;      ///< diff: initial K_w (m)
   double k0_rho = 1e-3;    ///< sync: initial K_rho (m)
   double k0_theta = 1e-4;  ///< sync: initial K_theta (rad^2/m)
-  int blocks = 5;          ///< the drive is cut in this many time blocks; 1 and 3 are held out
-  double gap_s = 2.0;      ///< data this close to a held-out block is not used to fit
-  double reanchor_s = 2.0; ///< in held-out blocks one scan (or fix) per this is fused
+  int blocks = 8;          ///< held-out blocks, one in the middle of each 1/blocks of the drive
+  double block_s = 4.0;    ///< length of a held-out block (s)
+  double gap_s = 1.0;      ///< data this close to a held-out block is not used to fit
+  double reanchor_s = 2.0; ///< in held-out blocks one scan (or fix) per this is fused (the rest predicted)
 };
 
 /// Runs the diagnosis; fills *out with the contract of docs/diagnostics.md. False with

@@ -1,0 +1,243 @@
+// The effect catalogue: every effect's Jacobians against central finite differences, the
+// physics of the contract (docs/effect-catalogue.md) at a few points, and composition.
+#include <gtest/gtest.h>
+
+#include "odoerr/akf.hpp"
+#include "odoerr/effects/catalogue.hpp"
+
+namespace odoerr {
+namespace {
+
+using namespace effects;
+using D = double;
+
+MotionContext<D> testContext() {
+  MotionContext<D> ctx;
+  ctx.dt = 0.02;
+  ctx.s_abs = 37.0;
+  ctx.s_signed = 12.0;
+  ctx.s_enc = 11.7;
+  ctx.s_rev = 0.02;  // inside the backlash span
+  ctx.last_sign = 1;
+  ctx.x = 4.2;
+  ctx.y = 5.1;
+  return ctx;
+}
+
+template <typename E>
+void checkMotionJacobians(const E& eff, const std::vector<D>& p0) {
+  const MotionContext<D> ctx = testContext();
+  const Increment<D> in{0.012, 0.004, 0.0003};
+  Eigen::Matrix<D, 3, 3> d_in;
+  Eigen::Matrix<D, 3, E::kParams> d_p;
+  (void)eff.apply(in, p0.data(), ctx, d_in, d_p);
+  auto vec = [](const Increment<D>& i) { return Eigen::Vector3d(i.rho, i.theta, i.side); };
+  Eigen::Matrix<D, 3, 3> dummy_in;
+  Eigen::Matrix<D, 3, E::kParams> dummy_p;
+  for (int k = 0; k < 3; ++k) {
+    const D h = 1e-7;
+    Increment<D> a = in, b = in;
+    (k == 0 ? a.rho : k == 1 ? a.theta : a.side) += h;
+    (k == 0 ? b.rho : k == 1 ? b.theta : b.side) -= h;
+    const Eigen::Vector3d fd = (vec(eff.apply(a, p0.data(), ctx, dummy_in, dummy_p)) -
+                                vec(eff.apply(b, p0.data(), ctx, dummy_in, dummy_p))) /
+                               (2 * h);
+    for (int r = 0; r < 3; ++r) EXPECT_NEAR(d_in(r, k), fd[r], 1e-6 * (1 + std::abs(fd[r]))) << E::kName << " d_in(" << r << "," << k << ")";
+  }
+  for (int k = 0; k < E::kParams; ++k) {
+    const D h = 1e-6;
+    std::vector<D> a = p0, b = p0;
+    a[k] += h;
+    b[k] -= h;
+    const Eigen::Vector3d fd =
+        (vec(eff.apply(in, a.data(), ctx, dummy_in, dummy_p)) - vec(eff.apply(in, b.data(), ctx, dummy_in, dummy_p))) /
+        (2 * h);
+    for (int r = 0; r < 3; ++r) EXPECT_NEAR(d_p(r, k), fd[r], 1e-8 * (1 + std::abs(fd[r]))) << E::kName << " d_p(" << r << "," << k << ")";
+  }
+}
+
+TEST(Effects, MotionJacobiansMatchFiniteDifferences) {
+  checkMotionJacobians(TurnSlip{}, {0.03});
+  checkMotionJacobians(RotationSlip{}, {0.04});
+  checkMotionJacobians(SpeedScale{}, {0.05});
+  checkMotionJacobians(WheelEccentricity{}, {0.02, -0.01});
+  checkMotionJacobians(Backlash{}, {0.004});
+  RegionScale reg;
+  reg.x_max = 10;
+  reg.y_max = 10;
+  checkMotionJacobians(reg, {0.01, 0.02, 0.03, 0.04, 0.05, 0.06, 0.07, 0.08, 0.09});
+  checkMotionJacobians(RadiusDrift{}, {0.02});
+}
+
+TEST(Effects, MotionPhysicsFollowsTheContract) {
+  const MotionContext<D> ctx = testContext();
+  const Increment<D> in{0.01, 0.005, 0};
+  Eigen::Matrix<D, 3, 3> di;
+  Eigen::Matrix<D, 3, 1> dp1;
+  const D k = 0.03;
+  // turn_slip: side += k v w rho with v = rho/dt, w = dtheta/dt
+  EXPECT_NEAR(TurnSlip{}.apply(in, &k, ctx, di, dp1).side, k * (0.01 / 0.02) * (0.005 / 0.02) * 0.01, 1e-15);
+  // rotation_slip: dtheta *= 1 - k |w|
+  EXPECT_NEAR(RotationSlip{}.apply(in, &k, ctx, di, dp1).theta, 0.005 * (1 - k * 0.25), 1e-15);
+  // backlash: inside the 5 cm span the travel is scaled by 1 - b / 0.05; outside not
+  MotionContext<D> far = ctx;
+  far.s_rev = 0.2;
+  const D b = 0.004;
+  EXPECT_NEAR(Backlash{}.apply(in, &b, ctx, di, dp1).rho, 0.01 * (1 - b / 0.05), 1e-15);
+  EXPECT_DOUBLE_EQ(Backlash{}.apply(in, &b, far, di, dp1).rho, 0.01);
+  // a reversal in this very cycle starts the span
+  const Increment<D> back{-0.01, 0, 0};
+  EXPECT_NEAR(Backlash{}.apply(back, &b, far, di, dp1).rho, -0.01 * (1 - b / 0.05), 1e-15);
+  // speed-dependent effects stay inactive when the cycle time is unknown
+  MotionContext<D> no_dt = ctx;
+  no_dt.dt = 0;
+  EXPECT_DOUBLE_EQ(SpeedScale{}.apply(in, &k, no_dt, di, dp1).rho, 0.01);
+  // region_scale: the cell of (4.2, 5.1) in a 3x3 grid over [0, 10]^2 is row 1, col 1
+  RegionScale reg;
+  reg.x_max = 10;
+  reg.y_max = 10;
+  EXPECT_EQ(reg.cell(4.2, 5.1), 4);
+  EXPECT_EQ(reg.cell(-3, 11), 6);  // clamped
+  // odometers: a reversal resets s_rev; s_enc follows the encoders
+  MotionContext<D> m;
+  m.advance(0.01, 0.011);
+  m.advance(-0.01, -0.0105);
+  EXPECT_NEAR(m.s_rev, 0.01, 1e-15);
+  EXPECT_NEAR(m.s_enc, 0.0005, 1e-15);
+  EXPECT_NEAR(m.s_abs, 0.02, 1e-15);
+}
+
+TEST(Effects, TurnNoiseAddsHeadingVarianceOnly) {
+  const D q = 2e-4;
+  const Eigen::Vector3d v = TurnNoise{}.variance(Increment<D>{0.01, -0.02, 0}, &q, testContext());
+  EXPECT_DOUBLE_EQ(v[0], 0);
+  EXPECT_NEAR(v[1], q * 0.02, 1e-18);
+  EXPECT_DOUBLE_EQ(v[2], 0);
+}
+
+// Measurement effects: the predicted range as the filter forms it (ray shift, cast,
+// correction) against the d range / d p the filter uses.
+using MM = Model<DiffDrive<D>, RangeBias, RangeScale, LaserMountXY, LaserMountYaw, ScanLatency, WallOffsetN<4>>;
+using AkfM = Akf<MM>;
+
+struct RoomSetup {
+  SegmentMap<D, 16> map;
+  LaserGeometry<D, 64> laser;
+  RoomSetup() {
+    EXPECT_TRUE(map.add({0, 0, 10, 0}));
+    EXPECT_TRUE(map.add({10, 0, 10, 10}));
+    EXPECT_TRUE(map.add({10, 10, 0, 10}));
+    EXPECT_TRUE(map.add({0, 10, 0, 0}));
+    LaserConfig<D> lc;
+    lc.mount_x = 0.1;
+    lc.mount_y = 0.02;
+    EXPECT_TRUE(laser.init(lc));
+  }
+};
+
+/// Range of beam i at state x and the filter's H row (first-order model with ray shift).
+bool predict(const RoomSetup& s, const MM& m, const MM::StateVec& x, int i, D* r, Eigen::Matrix<D, 1, MM::kStates>* h) {
+  const D c = std::cos(x[2]), sn = std::sin(x[2]);
+  const auto& lc = s.laser.config();
+  const RayContext<D> rc{c, sn, 0.4, -0.3, 0.7, -sn * lc.mount_x - c * lc.mount_y, c * lc.mount_x - sn * lc.mount_y};
+  const RayShift<D> shift = m.shiftRay(x, rc);
+  Eigen::Matrix<D, 1, 3> hp;
+  BeamContext<D> geo;
+  if (AkfM::expectedRange(s.map, s.laser, x[0], x[1], c, sn, i, 0.1, r, &hp, &geo, &shift) != Status::kOk) return false;
+  geo.vx = rc.vx;
+  geo.vy = rc.vy;
+  geo.w = rc.w;
+  D hf[MM::kStates] = {};
+  hf[0] = hp(0);
+  hf[1] = hp(1);
+  hf[2] = hp(2);
+  m.measure(x, geo, r, hf);
+  for (int k = 0; k < MM::kStates; ++k) (*h)(k) = hf[k];
+  return true;
+}
+
+TEST(Effects, MeasurementJacobiansMatchFiniteDifferences) {
+  const RoomSetup s;
+  const MM m;
+  MM::StateVec x = MM::StateVec::Zero();
+  x << 3.7, 4.4, 0.6, 1, 1, 1, 0.01, 0.002, 0.01, -0.005, 0.004, 0.015, 0.02, -0.01, 0.03, 0.0;
+  int checked = 0;
+  for (int i = 0; i < s.laser.beams(); i += 5) {
+    D r0;
+    Eigen::Matrix<D, 1, MM::kStates> h;
+    if (!predict(s, m, x, i, &r0, &h)) continue;
+    for (int k : {0, 1, 2}) {  // pose columns too
+      const D e = 1e-6;
+      MM::StateVec a = x, b = x;
+      a[k] += e;
+      b[k] -= e;
+      D ra, rb;
+      Eigen::Matrix<D, 1, MM::kStates> dummy;
+      ASSERT_TRUE(predict(s, m, a, i, &ra, &dummy) && predict(s, m, b, i, &rb, &dummy));
+      EXPECT_NEAR(h(k), (ra - rb) / (2 * e), 2e-2 * (1 + std::abs(h(k)))) << "beam " << i << " state " << k;
+    }
+    for (int k = MM::kDriveOffset + 3; k < MM::kStates; ++k) {
+      const D e = 1e-7;
+      MM::StateVec a = x, b = x;
+      a[k] += e;
+      b[k] -= e;
+      D ra, rb;
+      Eigen::Matrix<D, 1, MM::kStates> dummy;
+      ASSERT_TRUE(predict(s, m, a, i, &ra, &dummy) && predict(s, m, b, i, &rb, &dummy));
+      // first-order effects: the analytic derivative is taken at the ray as cast and
+      // drops products of two effect parameters (here range_scale 0.002 times the others)
+      EXPECT_NEAR(h(k), (ra - rb) / (2 * e), 5e-3 * (1 + std::abs(h(k)))) << "beam " << i << " state " << k;
+    }
+    ++checked;
+  }
+  EXPECT_GE(checked, 5);
+}
+
+TEST(Effects, ShiftedRayEqualsTheMovedLaser) {
+  // laser_mount_yaw by a ray shift gives exactly the range of a laser set up with that yaw
+  const RoomSetup s;
+  const MM m;
+  MM::StateVec x = MM::StateVec::Zero();
+  x[0] = 3.7;
+  x[1] = 4.4;
+  x[2] = 0.6;
+  MM::setNominal(x);
+  const int yaw_at = MM::offsetOf<LaserMountYaw>();
+  x[yaw_at] = 0.02;
+  LaserConfig<D> lc = s.laser.config();
+  lc.mount_yaw = 0.02;
+  LaserGeometry<D, 64> moved;
+  ASSERT_TRUE(moved.init(lc));
+  for (int i = 0; i < 36; i += 7) {
+    D r_shift, r_moved;
+    Eigen::Matrix<D, 1, MM::kStates> h;
+    Eigen::Matrix<D, 1, 3> hp;
+    if (!predict(s, m, x, i, &r_shift, &h)) continue;
+    ASSERT_EQ(AkfM::expectedRange(s.map, moved, x[0], x[1], std::cos(x[2]), std::sin(x[2]), i, 0.1, &r_moved, &hp),
+              Status::kOk);
+    EXPECT_NEAR(r_shift, r_moved, 1e-9);
+  }
+}
+
+TEST(Effects, HeldParameterStaysExactlyConstant) {
+  // A parameter with zero variance (a diagnosis holds it) is never touched by an update.
+  const RoomSetup s;
+  AkfM akf(MM{});
+  MM::StateVec x = MM::StateVec::Zero();
+  x[0] = 3;
+  x[1] = 4;
+  MM::setNominal(x);
+  x[MM::offsetOf<RangeBias>()] = 0.01;
+  MM::StateVec sig = MM::StateVec::Constant(0.01);
+  sig[MM::offsetOf<RangeBias>()] = 0;
+  akf.init(x, sig.cwiseAbs2().asDiagonal());
+  std::vector<D> ranges(36, 4.0);
+  const auto st = akf.updateScan(s.map, s.laser, ranges.data());
+  EXPECT_GT(st.used, 0);
+  EXPECT_EQ(akf.state()[MM::offsetOf<RangeBias>()], 0.01);
+  EXPECT_EQ(akf.covariance()(MM::offsetOf<RangeBias>(), MM::offsetOf<RangeBias>()), 0.0);
+  EXPECT_EQ(akf.counters().bad_covariance, 0u);
+}
+
+}  // namespace
+}  // namespace odoerr
