@@ -6,7 +6,6 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
-#include <cstdlib>
 #include <functional>
 #include <limits>
 #include <thread>
@@ -111,7 +110,6 @@ class Engine {
     KVec k;
     double ho_nis = 0, ho_sq = 0, ho_pos_sq = 0, ho_head_sq = 0;
     long ho_n = 0, ho_nt = 0;
-    AkfCounters counters{};
     std::vector<ScanRec> scans;
     std::vector<BeamRec> beams;
     std::vector<TrajRec> traj;
@@ -254,7 +252,7 @@ class Engine {
 
     RunOut out;
     std::vector<double> ranges(std::max(1, lc_.beams));
-    std::size_t it = 0;  // truth cursor
+    TruthCursor truth{log_.truth};
     double dist = 0;
     double last_anchor = -1e300;
     const double c_m = lc_.mount_x, s_m = lc_.mount_y;
@@ -345,7 +343,7 @@ class Engine {
           rec.s_rev = ctx.s_rev;
           rec.s_signed = ctx.s_enc;
           double tx, ty, tth;
-          if (truthAt(ev.t, &it, &tx, &ty, &tth)) {
+          if (truth.at(ev.t, &tx, &ty, &tth)) {
             const Eigen::Vector3d e(xp[0] - tx, xp[1] - ty, wrapAngle(xp[2] - tth));
             const Eigen::Matrix3d pp = akf.covariance().template topLeftCorner<3, 3>();
             rec.nees = e.dot(pp.ldlt().solve(e));
@@ -385,7 +383,7 @@ class Engine {
       // Truth comparison: held-out pose error (eval) and the trajectory (record).
       if (spec.mode == Mode::kEval && held) {
         double tx, ty, tth;
-        if (truthAt(ev.t, &it, &tx, &ty, &tth)) {
+        if (truth.at(ev.t, &tx, &ty, &tth)) {
           const auto& x = est.akf().state();
           out.ho_pos_sq += (x[0] - tx) * (x[0] - tx) + (x[1] - ty) * (x[1] - ty);
           out.ho_head_sq += wrapAngle(x[2] - tth) * wrapAngle(x[2] - tth);
@@ -395,14 +393,13 @@ class Engine {
       if (spec.record) {
         const auto& x = est.akf().state();
         TrajRec tr{ev.t, x[0], x[1], x[2], 0, 0, 0, false};
-        tr.truth = truthAt(ev.t, &it, &tr.tx, &tr.ty, &tr.tth);
+        tr.truth = truth.at(ev.t, &tr.tx, &tr.ty, &tr.tth);
         out.traj.push_back(tr);
       }
     }
     out.x = est.akf().state();
     out.p = est.akf().covariance();
     out.k = est.of().estimate();
-    out.counters = est.akf().counters();
     return out;
   }
 
@@ -435,20 +432,6 @@ class Engine {
   const Drive& drive() const { return drive_; }
 
  private:
-  bool truthAt(double t, std::size_t* i, double* x, double* y, double* th) const {
-    const auto& v = log_.truth;
-    if (v.empty() || t < v.front().t || t > v.back().t) return false;
-    if (*i >= v.size() || v[*i].t > t) *i = 0;
-    while (*i + 1 < v.size() && v[*i + 1].t <= t) ++*i;
-    const OdologTruth& lo = v[*i];
-    const OdologTruth& hi = *i + 1 < v.size() ? v[*i + 1] : v[*i];
-    const double w = hi.t > lo.t ? (t - lo.t) / (hi.t - lo.t) : 0.0;
-    *x = lo.x + w * (hi.x - lo.x);
-    *y = lo.y + w * (hi.y - lo.y);
-    *th = wrapAngle(lo.theta + w * wrapAngle(hi.theta - lo.theta));
-    return true;
-  }
-
   template <std::size_t... I>
   void buildEffectsImpl(std::index_sequence<I...>) {
     (addEffect<std::tuple_element_t<I, Catalogue>>(), ...);
@@ -474,19 +457,11 @@ class Engine {
   /// its own stamp (encoder counts interpolated to it), as `odoerr replay` does.
   void buildEvents() {
     const auto& e = log_.enc;
-    std::size_t k = 0;
+    EncCursor enc(e);
     auto countsAt = [&](double t, double* a, double* b) {
-      while (k + 1 < e.size() && e[k + 1].t <= t) ++k;
-      const OdologEnc& lo = e[k];
-      if (t <= lo.t || k + 1 >= e.size()) {
-        *a = double(lo.a);
-        *b = double(lo.b);
-        return;
-      }
-      const OdologEnc& hi = e[k + 1];
-      const double w = (t - lo.t) / (hi.t - lo.t);
-      *a = double(lo.a) + w * double(hi.a - lo.a);
-      *b = double(lo.b) + w * double(hi.b - lo.b);
+      const CountsAt c = enc.at(t);
+      *a = c.a;
+      *b = c.b;
     };
     double fa = double(e.front().a), fb = double(e.front().b), ft = e.front().t;
     auto push = [&](double t, double a, double b, int scan, int pose) {
@@ -757,19 +732,6 @@ bool diagnoseDrive(const Odolog& log, const DiagnoseOptions& opt, json* out, std
   }
   runParallel(tasks, opt.threads);
 
-  if (const char* tr = std::getenv("ODOERR_DIAG_TRACE")) {  // developer trace of one candidate's profile
-    for (int e = 0; e < ne; ++e) {
-      if (fx[e].name != tr || fx[e].kind == EffectKind::kNoise) continue;
-      for (double f : {0.0, 0.5, 1.0, 1.5}) {
-        RunSpec s = ref0;
-        for (int i = 0; i < fx[e].n; ++i) s.eff_val[fx[e].offset - kE + i] = f * cand[e].est[i];
-        const RunOut r = en.run(s);
-        std::fprintf(stderr, "trace %s x%.1f: loglik %.1f over %ld; used %u gated %u bad_cov %u bad_inn %u\n", tr,
-                     f, r.loglik, r.n_innov, r.counters.beams_used, r.counters.gated, r.counters.bad_covariance,
-                     r.counters.bad_innovation);
-      }
-    }
-  }
   // Joint information (the joint run's posterior, all augmentable candidates free):
   // for a pair of candidates, condition on the others (a model with only that pair added
   // holds them fixed) and marginalise the pose and the drive parameters; the pair is

@@ -16,45 +16,6 @@ namespace odoerr::sim {
 
 namespace {
 
-/// Encoder counts (possibly interpolated) at time t from the sorted enc records.
-struct CountsAt {
-  double a, b;
-};
-
-class EncTrack {
- public:
-  explicit EncTrack(const std::vector<OdologEnc>& e) : e_(e) {}
-  CountsAt at(double t) {
-    while (i_ + 1 < e_.size() && e_[i_ + 1].t <= t) ++i_;
-    const OdologEnc& lo = e_[i_];
-    if (t <= lo.t || i_ + 1 >= e_.size()) return {double(lo.a), double(lo.b)};
-    const OdologEnc& hi = e_[i_ + 1];
-    const double w = hi.t > lo.t ? (t - lo.t) / (hi.t - lo.t) : 1.0;
-    return {double(lo.a) + w * double(hi.a - lo.a), double(lo.b) + w * double(hi.b - lo.b)};
-  }
-
- private:
-  const std::vector<OdologEnc>& e_;
-  std::size_t i_ = 0;
-};
-
-struct Truth {
-  const std::vector<OdologTruth>& v;
-  std::size_t i = 0;
-  /// Truth interpolated at t (false when the log has none around t).
-  bool at(double t, double* x, double* y, double* th) {
-    if (v.empty() || t < v.front().t || t > v.back().t) return false;
-    while (i + 1 < v.size() && v[i + 1].t <= t) ++i;
-    const OdologTruth& lo = v[i];
-    const OdologTruth& hi = i + 1 < v.size() ? v[i + 1] : v[i];
-    const double w = hi.t > lo.t ? (t - lo.t) / (hi.t - lo.t) : 0.0;
-    *x = lo.x + w * (hi.x - lo.x);
-    *y = lo.y + w * (hi.y - lo.y);
-    *th = wrapAngle(lo.theta + w * wrapAngle(hi.theta - lo.theta));
-    return true;
-  }
-};
-
 template <template <typename> class DriveT>
 bool run(const Odolog& log, const ReplayOptions& opt, ReplaySummary* sum, std::string* error) {
   using S = double;
@@ -142,7 +103,7 @@ bool run(const Odolog& log, const ReplayOptions& opt, ReplaySummary* sum, std::s
   inn << "t,beam,status,measured,predicted,innovation,variance,nis\n";
   char buf[256];
 
-  Truth truth{log.truth};
+  TruthCursor truth{log.truth};
   double sq_pos = 0, sq_head = 0;
   std::size_t n_truth = 0;
   double nis_sum = 0;
@@ -177,7 +138,7 @@ bool run(const Odolog& log, const ReplayOptions& opt, ReplaySummary* sum, std::s
     csv << buf;
   };
 
-  EncTrack enc(log.enc);
+  EncCursor enc(log.enc);
   CountsAt filt = enc.at(log.enc.front().t);
   double t_f = log.enc.front().t;
   auto inputTo = [&](const CountsAt& c) {

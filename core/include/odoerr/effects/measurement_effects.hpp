@@ -7,12 +7,13 @@
 
 #include <Eigen/Core>
 
+#include "odoerr/effects/motion_effects.hpp"  // NominalZero
 #include "odoerr/model.hpp"
 
 namespace odoerr::effects {
 
 /// r = r_true + b.
-struct RangeBias {
+struct RangeBias : NominalZero<RangeBias> {
   static constexpr EffectKind kKind = EffectKind::kMeasurement;
   static constexpr bool kShiftsRay = false;
   static constexpr int kParams = 1;
@@ -22,10 +23,6 @@ struct RangeBias {
   static constexpr double kPriorSigma[kParams] = {0.05};
   static constexpr double kReference[kParams] = {0.01};
   template <typename S>
-  static Eigen::Matrix<S, kParams, 1> nominal() {
-    return Eigen::Matrix<S, kParams, 1>::Zero();
-  }
-  template <typename S>
   S range(const BeamContext<S>&, const S* p, S* dr_dp) const {
     dr_dp[0] = S(1);
     return p[0];
@@ -33,7 +30,7 @@ struct RangeBias {
 };
 
 /// r = r_true (1 + s).
-struct RangeScale {
+struct RangeScale : NominalZero<RangeScale> {
   static constexpr EffectKind kKind = EffectKind::kMeasurement;
   static constexpr bool kShiftsRay = false;
   static constexpr int kParams = 1;
@@ -43,10 +40,6 @@ struct RangeScale {
   static constexpr double kPriorSigma[kParams] = {0.02};
   static constexpr double kReference[kParams] = {0.003};
   template <typename S>
-  static Eigen::Matrix<S, kParams, 1> nominal() {
-    return Eigen::Matrix<S, kParams, 1>::Zero();
-  }
-  template <typename S>
   S range(const BeamContext<S>& b, const S* p, S* dr_dp) const {
     dr_dp[0] = b.range;
     return p[0] * b.range;
@@ -54,7 +47,7 @@ struct RangeScale {
 };
 
 /// The laser sits at (mount_x + dx, mount_y + dy) in the robot frame.
-struct LaserMountXY {
+struct LaserMountXY : NominalZero<LaserMountXY> {
   static constexpr EffectKind kKind = EffectKind::kMeasurement;
   static constexpr bool kShiftsRay = true;
   static constexpr int kParams = 2;
@@ -63,10 +56,6 @@ struct LaserMountXY {
   static constexpr const char* kDescription = "the laser is mounted off the position the model assumes";
   static constexpr double kPriorSigma[kParams] = {0.05, 0.05};
   static constexpr double kReference[kParams] = {0.01, 0.01};
-  template <typename S>
-  static Eigen::Matrix<S, kParams, 1> nominal() {
-    return Eigen::Matrix<S, kParams, 1>::Zero();
-  }
   template <typename S>
   void shift(const RayContext<S>& rc, const S* p, RayShift<S>* out) const {
     // the offset rotated into the world frame moves the laser
@@ -82,7 +71,7 @@ struct LaserMountXY {
 };
 
 /// The laser's yaw is mount_yaw + dpsi.
-struct LaserMountYaw {
+struct LaserMountYaw : NominalZero<LaserMountYaw> {
   static constexpr EffectKind kKind = EffectKind::kMeasurement;
   static constexpr bool kShiftsRay = true;
   static constexpr int kParams = 1;
@@ -91,10 +80,6 @@ struct LaserMountYaw {
   static constexpr const char* kDescription = "the laser is rotated on its mount relative to the model";
   static constexpr double kPriorSigma[kParams] = {0.05};
   static constexpr double kReference[kParams] = {0.005};
-  template <typename S>
-  static Eigen::Matrix<S, kParams, 1> nominal() {
-    return Eigen::Matrix<S, kParams, 1>::Zero();
-  }
   template <typename S>
   void shift(const RayContext<S>&, const S* p, RayShift<S>* out) const {
     out->da += p[0];
@@ -108,7 +93,7 @@ struct LaserMountYaw {
 
 /// The scan stamped t was taken at t - tau: the pose then was the pose now minus tau times
 /// the velocity.
-struct ScanLatency {
+struct ScanLatency : NominalZero<ScanLatency> {
   static constexpr EffectKind kKind = EffectKind::kMeasurement;
   static constexpr bool kShiftsRay = true;
   static constexpr int kParams = 1;
@@ -118,10 +103,6 @@ struct ScanLatency {
       "scans are time-stamped late: each was taken a little before its stamp, from where the robot was then";
   static constexpr double kPriorSigma[kParams] = {0.05};
   static constexpr double kReference[kParams] = {0.01};
-  template <typename S>
-  static Eigen::Matrix<S, kParams, 1> nominal() {
-    return Eigen::Matrix<S, kParams, 1>::Zero();
-  }
   template <typename S>
   void shift(const RayContext<S>& rc, const S* p, RayShift<S>* out) const {
     // the robot tau earlier: position - tau v, heading - tau w (which also swings the lever)
@@ -138,7 +119,7 @@ struct ScanLatency {
 
 /// Wall w lies o_w further along its left unit normal than the map says.
 template <int MaxWalls = 16>
-struct WallOffsetN {
+struct WallOffsetN : NominalZero<WallOffsetN<MaxWalls>> {
   static constexpr EffectKind kKind = EffectKind::kMeasurement;
   static constexpr bool kShiftsRay = false;
   static constexpr int kParams = MaxWalls;
@@ -149,10 +130,6 @@ struct WallOffsetN {
   static_assert(MaxWalls <= 16, "name more parameters");
   static constexpr double kPriorSigma[1] = {0.05};  ///< every wall alike
   static constexpr double kReference[1] = {0.02};
-  template <typename S>
-  static Eigen::Matrix<S, kParams, 1> nominal() {
-    return Eigen::Matrix<S, kParams, 1>::Zero();
-  }
   template <typename S>
   S range(const BeamContext<S>& b, const S* p, S* dr_dp) const {
     for (int k = 0; k < kParams; ++k) dr_dp[k] = S(0);

@@ -11,6 +11,16 @@
 
 namespace odoerr::effects {
 
+/// Every catalogue effect is nominal at zero: the base that says so once (CRTP; E::kParams
+/// is read only when nominal() is called, once E is complete).
+template <typename E>
+struct NominalZero {
+  template <typename S>
+  static auto nominal() {  // the return type is deduced when called (E complete by then)
+    return Eigen::Matrix<S, E::kParams, 1>(Eigen::Matrix<S, E::kParams, 1>::Zero());
+  }
+};
+
 /// Shared by the effects: a helper that starts the Jacobians at identity / zero.
 template <typename S, int P>
 inline void startJacobians(Eigen::Matrix<S, 3, 3>& d_in, Eigen::Matrix<S, 3, P>& d_p) {
@@ -19,7 +29,7 @@ inline void startJacobians(Eigen::Matrix<S, 3, 3>& d_in, Eigen::Matrix<S, 3, P>&
 }
 
 /// Lateral slip growing with centripetal acceleration: side += k v w rho.
-struct TurnSlip {
+struct TurnSlip : NominalZero<TurnSlip> {
   static constexpr EffectKind kKind = EffectKind::kMotion;
   static constexpr int kParams = 1;
   static constexpr const char* kName = "turn_slip";
@@ -28,10 +38,6 @@ struct TurnSlip {
       "the tyres slide sideways in a turn, by an amount growing with the centripetal acceleration v*w";
   static constexpr double kPriorSigma[kParams] = {0.05};
   static constexpr double kReference[kParams] = {0.02};  ///< a size worth detecting
-  template <typename S>
-  static Eigen::Matrix<S, kParams, 1> nominal() {
-    return Eigen::Matrix<S, kParams, 1>::Zero();
-  }
   template <typename S>
   Increment<S> apply(const Increment<S>& in, const S* p, const MotionContext<S>& ctx,
                      Eigen::Matrix<S, 3, 3>& d_in, Eigen::Matrix<S, 3, kParams>& d_p) const {
@@ -50,7 +56,7 @@ struct TurnSlip {
 };
 
 /// Heading lost when turning fast: dtheta *= 1 - k |w|.
-struct RotationSlip {
+struct RotationSlip : NominalZero<RotationSlip> {
   static constexpr EffectKind kKind = EffectKind::kMotion;
   static constexpr int kParams = 1;
   static constexpr const char* kName = "rotation_slip";
@@ -59,10 +65,6 @@ struct RotationSlip {
       "the wheels scrub when the robot turns fast, so it turns less than the encoders say, more so at high turn rate";
   static constexpr double kPriorSigma[kParams] = {0.05};
   static constexpr double kReference[kParams] = {0.02};
-  template <typename S>
-  static Eigen::Matrix<S, kParams, 1> nominal() {
-    return Eigen::Matrix<S, kParams, 1>::Zero();
-  }
   template <typename S>
   Increment<S> apply(const Increment<S>& in, const S* p, const MotionContext<S>& ctx,
                      Eigen::Matrix<S, 3, 3>& d_in, Eigen::Matrix<S, 3, kParams>& d_p) const {
@@ -79,7 +81,7 @@ struct RotationSlip {
 };
 
 /// Wheel travel scale growing with speed: rho *= 1 + k |v|.
-struct SpeedScale {
+struct SpeedScale : NominalZero<SpeedScale> {
   static constexpr EffectKind kKind = EffectKind::kMotion;
   static constexpr int kParams = 1;
   static constexpr const char* kName = "speed_scale";
@@ -88,10 +90,6 @@ struct SpeedScale {
       "the distance travelled per encoder count changes with speed (tyre compression, longitudinal slip)";
   static constexpr double kPriorSigma[kParams] = {0.05};
   static constexpr double kReference[kParams] = {0.02};
-  template <typename S>
-  static Eigen::Matrix<S, kParams, 1> nominal() {
-    return Eigen::Matrix<S, kParams, 1>::Zero();
-  }
   template <typename S>
   Increment<S> apply(const Increment<S>& in, const S* p, const MotionContext<S>& ctx,
                      Eigen::Matrix<S, 3, 3>& d_in, Eigen::Matrix<S, 3, kParams>& d_p) const {
@@ -108,7 +106,7 @@ struct SpeedScale {
 
 /// Travel scale varying once per wheel turn: rho *= 1 + a cos(phi) + b sin(phi),
 /// phi = s_enc / wheel_radius (the wheel angle the encoders count, exactly known).
-struct WheelEccentricity {
+struct WheelEccentricity : NominalZero<WheelEccentricity> {
   static constexpr EffectKind kKind = EffectKind::kMotion;
   static constexpr int kParams = 2;
   static constexpr const char* kName = "wheel_eccentricity";
@@ -118,10 +116,6 @@ struct WheelEccentricity {
   static constexpr double kPriorSigma[kParams] = {0.05, 0.05};
   static constexpr double kReference[kParams] = {0.02, 0.02};
   double wheel_radius = 0.05;  ///< nominal wheel radius (m)
-  template <typename S>
-  static Eigen::Matrix<S, kParams, 1> nominal() {
-    return Eigen::Matrix<S, kParams, 1>::Zero();
-  }
   template <typename S>
   Increment<S> apply(const Increment<S>& in, const S* p, const MotionContext<S>& ctx,
                      Eigen::Matrix<S, 3, 3>& d_in, Eigen::Matrix<S, 3, kParams>& d_p) const {
@@ -139,7 +133,7 @@ struct WheelEccentricity {
 };
 
 /// Lost motion after a reversal: while s_rev < 5 cm, rho *= 1 - b / 0.05.
-struct Backlash {
+struct Backlash : NominalZero<Backlash> {
   static constexpr EffectKind kKind = EffectKind::kMotion;
   static constexpr int kParams = 1;
   static constexpr const char* kName = "backlash";
@@ -149,10 +143,6 @@ struct Backlash {
   static constexpr double kPriorSigma[kParams] = {0.01};
   static constexpr double kReference[kParams] = {0.004};
   static constexpr double kSpan = 0.05;  ///< travel after a reversal over which it is lost (m)
-  template <typename S>
-  static Eigen::Matrix<S, kParams, 1> nominal() {
-    return Eigen::Matrix<S, kParams, 1>::Zero();
-  }
   template <typename S>
   Increment<S> apply(const Increment<S>& in, const S* p, const MotionContext<S>& ctx,
                      Eigen::Matrix<S, 3, 3>& d_in, Eigen::Matrix<S, 3, kParams>& d_p) const {
@@ -173,7 +163,7 @@ struct Backlash {
 
 /// A floor region with its own travel scale: rho *= 1 + c_j in cell j of a 3x3 grid over
 /// the map's bounding box.
-struct RegionScale {
+struct RegionScale : NominalZero<RegionScale> {
   static constexpr EffectKind kKind = EffectKind::kMotion;
   static constexpr int kGrid = 3;
   static constexpr int kParams = kGrid * kGrid;
@@ -197,10 +187,6 @@ struct RegionScale {
     return kGrid * idx(y, y_min, y_max) + idx(x, x_min, x_max);
   }
   template <typename S>
-  static Eigen::Matrix<S, kParams, 1> nominal() {
-    return Eigen::Matrix<S, kParams, 1>::Zero();
-  }
-  template <typename S>
   Increment<S> apply(const Increment<S>& in, const S* p, const MotionContext<S>& ctx,
                      Eigen::Matrix<S, 3, 3>& d_in, Eigen::Matrix<S, 3, kParams>& d_p) const {
     startJacobians(d_in, d_p);
@@ -214,7 +200,7 @@ struct RegionScale {
 };
 
 /// A wheel radius that changes slowly with distance: rho *= 1 + g s_abs / 100 m.
-struct RadiusDrift {
+struct RadiusDrift : NominalZero<RadiusDrift> {
   static constexpr EffectKind kKind = EffectKind::kMotion;
   static constexpr int kParams = 1;
   static constexpr const char* kName = "radius_drift";
@@ -223,10 +209,6 @@ struct RadiusDrift {
       "the wheel radius changes slowly as the robot drives (wear, tyre pressure, temperature)";
   static constexpr double kPriorSigma[kParams] = {0.05};
   static constexpr double kReference[kParams] = {0.01};
-  template <typename S>
-  static Eigen::Matrix<S, kParams, 1> nominal() {
-    return Eigen::Matrix<S, kParams, 1>::Zero();
-  }
   template <typename S>
   Increment<S> apply(const Increment<S>& in, const S* p, const MotionContext<S>& ctx,
                      Eigen::Matrix<S, 3, 3>& d_in, Eigen::Matrix<S, 3, kParams>& d_p) const {
@@ -241,7 +223,7 @@ struct RadiusDrift {
 };
 
 /// Non-systematic heading noise growing with rotation: variance q |dtheta| per cycle.
-struct TurnNoise {
+struct TurnNoise : NominalZero<TurnNoise> {
   static constexpr EffectKind kKind = EffectKind::kNoise;
   static constexpr int kParams = 1;
   static constexpr const char* kName = "turn_noise";
@@ -250,10 +232,6 @@ struct TurnNoise {
       "random heading error growing with the angle turned (uneven scrubbing), beyond the drive's own noise model";
   static constexpr double kPriorSigma[kParams] = {1e-3};
   static constexpr double kReference[kParams] = {2e-4};
-  template <typename S>
-  static Eigen::Matrix<S, kParams, 1> nominal() {
-    return Eigen::Matrix<S, kParams, 1>::Zero();
-  }
   template <typename S>
   Eigen::Matrix<S, 3, 1> variance(const Increment<S>& inc, const S* p, const MotionContext<S>&) const {
     const S q = p[0] > S(0) ? p[0] : S(0);

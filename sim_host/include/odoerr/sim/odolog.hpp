@@ -8,6 +8,8 @@
 #include <utility>
 #include <vector>
 
+#include "odoerr/scalar.hpp"
+
 namespace odoerr::sim {
 
 struct OdologLaser {
@@ -58,6 +60,47 @@ struct Odolog {
   /// The value of a `param`, or `fallback` when absent.
   double param(const std::string& name, double fallback) const;
   bool hasParam(const std::string& name) const;
+};
+
+/// Encoder counts (possibly interpolated) at time t from the sorted enc records.
+struct CountsAt {
+  double a, b;
+};
+
+/// Walks the sorted enc records forward in time.
+class EncCursor {
+ public:
+  explicit EncCursor(const std::vector<OdologEnc>& e) : e_(e) {}
+  CountsAt at(double t) {
+    while (i_ + 1 < e_.size() && e_[i_ + 1].t <= t) ++i_;
+    const OdologEnc& lo = e_[i_];
+    if (t <= lo.t || i_ + 1 >= e_.size()) return {double(lo.a), double(lo.b)};
+    const OdologEnc& hi = e_[i_ + 1];
+    const double w = hi.t > lo.t ? (t - lo.t) / (hi.t - lo.t) : 1.0;
+    return {double(lo.a) + w * double(hi.a - lo.a), double(lo.b) + w * double(hi.b - lo.b)};
+  }
+
+ private:
+  const std::vector<OdologEnc>& e_;
+  std::size_t i_ = 0;
+};
+
+/// Walks the truth records forward in time.
+struct TruthCursor {
+  const std::vector<OdologTruth>& v;
+  std::size_t i = 0;
+  /// Truth interpolated at t (false when the log has none around t).
+  bool at(double t, double* x, double* y, double* th) {
+    if (v.empty() || t < v.front().t || t > v.back().t) return false;
+    while (i + 1 < v.size() && v[i + 1].t <= t) ++i;
+    const OdologTruth& lo = v[i];
+    const OdologTruth& hi = i + 1 < v.size() ? v[i + 1] : v[i];
+    const double w = hi.t > lo.t ? (t - lo.t) / (hi.t - lo.t) : 0.0;
+    *x = lo.x + w * (hi.x - lo.x);
+    *y = lo.y + w * (hi.y - lo.y);
+    *th = wrapAngle(lo.theta + w * wrapAngle(hi.theta - lo.theta));
+    return true;
+  }
 };
 
 /// Parses an odolog v1 text. On failure returns false and sets *error to
