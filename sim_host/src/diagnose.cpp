@@ -4,10 +4,13 @@
 #include <atomic>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <functional>
 #include <limits>
+#include <map>
+#include <optional>
 #include <thread>
 
 #include <Eigen/Dense>
@@ -66,6 +69,12 @@ struct EffectInfo {
   std::vector<std::string> pnames;
 };
 
+/// One predicted (not fused) held-out measurement: its time, NIS and negative
+/// log-likelihood per degree of freedom, and the pose error against truth (NaN without).
+struct HeldScan {
+  double t, nis, nll, pose_err;
+};
+
 struct Event {
   double t, dt, a, b;
   int scan = -1, pose = -1;
@@ -96,6 +105,7 @@ class Engine {
     bool of_free = false;
     KVec k;
     Mode mode = Mode::kFull;
+    int fold = 0;  ///< kFit / kEval: the cross-validation fold held out
     bool record = false;
     /// The beams the likelihood is scored on (scan * beams + beam); the baseline run
     /// chooses them (make_scored) and every other run scores the same set.
@@ -108,8 +118,9 @@ class Engine {
     StateVec x;
     StateMat p;
     KVec k;
-    double ho_nis = 0, ho_sq = 0, ho_pos_sq = 0, ho_head_sq = 0;
-    long ho_n = 0, ho_nt = 0;
+    double ho_nis = 0, ho_nll = 0, ho_sq = 0, ho_pos_sq = 0, ho_head_sq = 0;
+    long ho_n = 0, ho_nsq = 0, ho_nt = 0;  ///< held-out innovations, those inside the gate, truth samples
+    std::vector<HeldScan> ho_scans;  ///< kEval: every predicted held-out scan or fix
     std::vector<ScanRec> scans;
     std::vector<BeamRec> beams;
     std::vector<TrajRec> traj;
@@ -161,14 +172,15 @@ class Engine {
     buildEvents();
     t0_ = events_.front().t;
     t1_ = events_.back().t;
-    // Held-out blocks: short windows spread evenly over the drive (the fit dead-reckons
-    // through a block and its gaps, so a block must be short enough to relocalise after).
-    const double period = (t1_ - t0_) / opt_.blocks;
-    for (int b = 0; b < opt_.blocks; ++b) {
-      const double mid = t0_ + (b + 0.5) * period;
-      if (mid - 0.5 * opt_.block_s - opt_.gap_s <= t0_ + 10.0) continue;  // let the fit start first
-      heldout_.push_back({mid - 0.5 * opt_.block_s, mid + 0.5 * opt_.block_s});
-    }
+    // Held-out blocks: after the warm-up, the drive cut into short blocks (the fit
+    // dead-reckons through a block and its gaps, so a block must be short enough to
+    // relocalise after); fold f holds out blocks f, f + folds, ...
+    blocks_start_ = t0_ + opt_.warmup_s + opt_.gap_s;
+    const double span = t1_ - blocks_start_;
+    const int nb = opt_.block_s > 0 && span > 0 ? static_cast<int>(span / opt_.block_s) : 0;
+    for (int b = 0; b < nb; ++b)
+      blocks_.push_back({blocks_start_ + b * opt_.block_s, blocks_start_ + (b + 1) * opt_.block_s});
+    folds_ = std::max(0, std::min(opt_.folds, nb));
     return true;
   }
 
@@ -255,28 +267,36 @@ class Engine {
     TruthCursor truth{log_.truth};
     double dist = 0;
     double last_anchor = -1e300;
+    std::optional<Est> fork;  // kEval: the copy that predicts a held-out block from its anchor
     const double c_m = lc_.mount_x, s_m = lc_.mount_y;
     for (const Event& ev : events_) {
       const typename Drive::Input u{ev.a, ev.b};
       dist += Drive::pathLength(u);
       if (est.predictStep(u, ev.dt) != Status::kOk) continue;
-      const bool held = inHeldout(ev.t);
+      const bool held = spec.mode != Mode::kFull && inHeldout(ev.t, spec.fold);
       bool use = true;      // fuse this event's measurement
       bool score = spec.mode == Mode::kFull;
       bool evaluate = false;  // held-out evaluation (predict, do not fuse)
+      double ev_nis = 0, ev_nll = 0;  // the evaluated scan's NIS and NLL sums, degrees of freedom
+      int ev_dof = 0;
       if (spec.mode == Mode::kFit) {
-        use = !held && !nearHeldout(ev.t);
+        use = !held && !nearHeldout(ev.t, spec.fold);
         score = use;
       }
-      if (spec.mode == Mode::kEval && held && (ev.scan >= 0 || ev.pose >= 0)) {
-        if (ev.t - last_anchor >= opt_.reanchor_s) {
-          last_anchor = ev.t;
-        } else {
-          use = false;
-          evaluate = true;
+      // Evaluation: the main filter fuses everything; at an anchor (a held-out block's first
+      // measurement, then one per reanchor_s) a copy of it is taken, and the copy predicts
+      // the block's other measurements from the data up to its anchor only. A bad
+      // prediction never feeds back into the tracking.
+      if (spec.mode == Mode::kEval) {
+        if (!held) {
+          fork.reset();
+        } else if (fork && fork->predictStep(u, ev.dt) != Status::kOk) {
+          fork.reset();
         }
+        evaluate = held && fork && (ev.scan >= 0 || ev.pose >= 0) && ev.t - last_anchor < opt_.reanchor_s;
       }
-      const auto& akf = est.akf();
+      Est& pe = evaluate ? *fork : est;  // the filter whose prediction is scored
+      const auto& akf = pe.akf();
       const StateVec xm = akf.state();
       if (ev.scan >= 0) {
         const OdologScan& sc = log_.scans[static_cast<std::size_t>(ev.scan)];
@@ -306,9 +326,17 @@ class Engine {
             ++out.n_innov;
           }
           if (evaluate) {
+            const double nll = 0.5 * (std::log(2 * kPi<double> * r.variance) + std::min(nis, kCap));
             out.ho_nis += std::min(nis, kCap);
-            out.ho_sq += nu * nu;
+            out.ho_nll += nll;
+            ev_nll += nll;
             ++out.ho_n;
+            if (nis < kCap) {  // the innovation error of beams inside the gate (an outlier's size says nothing)
+              out.ho_sq += nu * nu;
+              ++out.ho_nsq;
+            }
+            ev_nis += std::min(nis, kCap);
+            ++ev_dof;
           }
           if (spec.record) {
             rec.nis_sum += std::min(nis, kCap);
@@ -320,8 +348,9 @@ class Engine {
           }
         };
         if (evaluate) {
-          est.evaluateScan(ranges.data(), observe);
-          (void)est.measureStep(nullptr, typename Est::AkfT::NoObserver{});
+          fork->evaluateScan(ranges.data(), observe);
+          (void)fork->measureStep(nullptr, typename Est::AkfT::NoObserver{});
+          (void)est.measureStep(ranges.data(), typename Est::AkfT::NoObserver{});
         } else if (use) {
           (void)est.measureStep(ranges.data(), observe);
         } else {
@@ -363,13 +392,23 @@ class Engine {
           out.n_innov += 3;
         }
         if (evaluate && std::isfinite(nis)) {
+          const double nll = 0.5 * (3 * std::log(2 * kPi<double>) + logdet + std::min(nis, 3 * kCap)) / 3;
           out.ho_nis += std::min(nis, 3 * kCap) / 3;
-          out.ho_sq += (nu[0] * nu[0] + nu[1] * nu[1]) / 2;
+          out.ho_nll += nll;
+          ev_nll += nll;
           ++out.ho_n;
+          if (nis < 3 * kCap) {
+            out.ho_sq += (nu[0] * nu[0] + nu[1] * nu[1]) / 2;
+            ++out.ho_nsq;
+          }
+          ev_nis += std::min(nis, 3 * kCap) / 3;
+          ++ev_dof;
         }
         const PoseFix<S> fix{q.x, q.y, q.theta, q.sx, q.sy, q.stheta};
+        if (evaluate) (void)fork->measureStep(nullptr, typename Est::AkfT::NoObserver{});
         (void)est.measureStep(nullptr, typename Est::AkfT::NoObserver{}, use ? &fix : nullptr);
       } else {
+        if (fork) (void)fork->measureStep(nullptr, typename Est::AkfT::NoObserver{});
         (void)est.measureStep(nullptr, typename Est::AkfT::NoObserver{});
       }
       if (spec.of_free && est.of().counters().updates > out.obs.size()) {
@@ -380,15 +419,22 @@ class Engine {
         }
         out.obs.push_back(o);
       }
+      if (spec.mode == Mode::kEval && held && (ev.scan >= 0 || ev.pose >= 0) && !evaluate) {
+        fork.emplace(est);  // an anchor
+        last_anchor = ev.t;
+      }
       // Truth comparison: held-out pose error (eval) and the trajectory (record).
-      if (spec.mode == Mode::kEval && held) {
-        double tx, ty, tth;
+      if (spec.mode == Mode::kEval && held && fork) {
+        double tx, ty, tth, err = std::nan("");
         if (truth.at(ev.t, &tx, &ty, &tth)) {
-          const auto& x = est.akf().state();
-          out.ho_pos_sq += (x[0] - tx) * (x[0] - tx) + (x[1] - ty) * (x[1] - ty);
+          const auto& x = fork->akf().state();
+          const double e2 = (x[0] - tx) * (x[0] - tx) + (x[1] - ty) * (x[1] - ty);
+          out.ho_pos_sq += e2;
           out.ho_head_sq += wrapAngle(x[2] - tth) * wrapAngle(x[2] - tth);
           ++out.ho_nt;
+          err = std::sqrt(e2);
         }
+        if (ev_dof > 0) out.ho_scans.push_back({ev.t, ev_nis / ev_dof, ev_nll / ev_dof, err});
       }
       if (spec.record) {
         const auto& x = est.akf().state();
@@ -417,17 +463,26 @@ class Engine {
   }
   std::size_t scoredSize() const { return log_.scans.size() * static_cast<std::size_t>(std::max(0, lc_.beams)); }
 
-  bool inHeldout(double t) const {
-    for (const auto& h : heldout_)
-      if (t >= h.first && t < h.second) return true;
+  /// The block that holds time t (-1: none).
+  int blockAt(double t) const {
+    if (blocks_.empty() || t < blocks_start_) return -1;
+    const int b = static_cast<int>((t - blocks_start_) / opt_.block_s);
+    return b < static_cast<int>(blocks_.size()) ? b : -1;
+  }
+  bool heldBlock(int b, int fold) const { return b >= 0 && folds_ > 0 && b % folds_ == fold; }
+  bool inHeldout(double t, int fold) const { return heldBlock(blockAt(t), fold); }
+  /// Within gap_s of a block held out in this fold (the fit does not use it either).
+  bool nearHeldout(double t, int fold) const {
+    if (blocks_.empty()) return false;
+    const double lo = std::floor((t - opt_.gap_s - blocks_start_) / opt_.block_s);
+    const double hi = std::floor((t + opt_.gap_s - blocks_start_) / opt_.block_s);
+    const int last = static_cast<int>(blocks_.size()) - 1;
+    for (int b = static_cast<int>(std::max(0.0, lo)); b <= std::min(double(last), hi); ++b)
+      if (heldBlock(b, fold)) return true;
     return false;
   }
-  bool nearHeldout(double t) const {
-    for (const auto& h : heldout_)
-      if (t >= h.first - opt_.gap_s && t < h.second + opt_.gap_s) return true;
-    return false;
-  }
-  const std::vector<std::pair<double, double>>& heldout() const { return heldout_; }
+  const std::vector<std::pair<double, double>>& blocks() const { return blocks_; }
+  int folds() const { return folds_; }
   double duration() const { return t1_ - t0_; }
   const Drive& drive() const { return drive_; }
 
@@ -512,7 +567,9 @@ class Engine {
   std::vector<EffectInfo> effects_;
   std::vector<Event> events_;
   double t0_ = 0, t1_ = 0;
-  std::vector<std::pair<double, double>> heldout_;
+  std::vector<std::pair<double, double>> blocks_;  ///< held-out blocks; block b in fold b % folds_
+  double blocks_start_ = 0;
+  int folds_ = 0;
 };
 
 /// Runs tasks on `threads` workers.
@@ -591,25 +648,53 @@ bool diagnoseDrive(const Odolog& log, const DiagnoseOptions& opt, json* out, std
     std::vector<bool> informed;
     double ll = 0, ll_ref = 0;
     int k = 0;
+    double k_mult = 1, q_best = 0;  ///< noise effect: its best profile point (whose likelihood is ll)
+    /// Noise effect: its profile, {q, best log-likelihood over K, its K multiplier, the
+    /// parabola's peak over log K} per q.
+    std::vector<std::array<double, 4>> profile;
   };
-  // A noise effect competes with K for the same variance, and the OF's K is biased (low,
-  // docs/paper-notes.md): so its profile is two-dimensional, over q and a K multiplier, and
-  // its likelihood ratio compares the best (q > 0, K) with the best (q = 0, K).
+  // A noise effect competes with K for the same variance, and the K the OF gives has
+  // absorbed that noise where the effect is real: so its profile is two-dimensional. At
+  // each q the likelihood is maximised over a K multiplier (steps of 1.25, extended while
+  // the best is at an edge); a coarse q grid finds the region and two more points (half and
+  // twice the best q) refine it. The likelihood ratio compares the best q > 0 with q = 0.
   const double q_grid[4] = {0.0, 0.5, 2.0, 8.0};
-  const double k_mult[3] = {0.8, 1.0, 1.25};
-  auto augmentTasks = [&](const RunSpec& ref, double ll_ref, int e, Cand* c, std::vector<RunOut>* prof,
-                          RunOut* aug, std::vector<std::function<void()>>* tasks) {
+  auto profileAtQ = [&](const RunSpec& ref, int e, double q) {
+    std::map<int, double> ll;  // K multiplier 1.25^i -> log-likelihood
+    auto at = [&](int i) {
+      if (ll.count(i) == 0) {
+        RunSpec s = ref;
+        s.k = ref.k * std::pow(1.25, i);
+        s.eff_val[fx[e].offset - kE] = q;
+        ll[i] = en.run(s).loglik;
+      }
+      return ll[i];
+    };
+    int lo = -1, hi = 1, best = 0;
+    for (int i = lo; i <= hi; ++i) at(i);
+    for (;;) {
+      best = lo;
+      for (int i = lo; i <= hi; ++i)
+        if (ll[i] > ll[best]) best = i;
+      if (best == lo && lo > -8) at(--lo);
+      else if (best == hi && hi < 6) at(++hi);
+      else break;
+    }
+    double peak = ll[best];
+    if (best > lo && best < hi) {
+      const double y0 = ll[best - 1], y1 = ll[best], y2 = ll[best + 1];
+      const double curv = y0 - 2 * y1 + y2;
+      if (curv < 0) peak = y1 - (y0 - y2) * (y0 - y2) / (8 * curv);
+    }
+    return std::array<double, 4>{q, ll[best], std::pow(1.25, best), peak};
+  };
+  auto augmentTasks = [&](const RunSpec& ref, double ll_ref, int e, Cand* c, RunOut* aug,
+                          std::vector<std::function<void()>>* tasks) {
     c->ll_ref = ll_ref;
     if (fx[e].kind == EffectKind::kNoise) {
-      prof->resize(12);
-      for (int g = 0; g < 12; ++g) {
-        tasks->push_back([&, ref, e, g, prof] {
-          RunSpec s = ref;
-          s.k = ref.k * k_mult[g % 3];
-          s.eff_val[fx[e].offset - kE] = q_grid[g / 3] * fx[e].ref[0];
-          (*prof)[g] = en.run(s);
-        });
-      }
+      c->profile.assign(4, {});
+      for (int g = 0; g < 4; ++g)
+        tasks->push_back([&, ref, e, g, c] { c->profile[g] = profileAtQ(ref, e, q_grid[g] * fx[e].ref[0]); });
       return;
     }
     tasks->push_back([&, ref, e, aug] {
@@ -619,38 +704,68 @@ bool diagnoseDrive(const Odolog& log, const DiagnoseOptions& opt, json* out, std
     });
   };
   // After the augmented runs: estimates, informed parameters, and the held run's task.
-  auto heldTasks = [&](const RunSpec& ref, int e, Cand* c, const std::vector<RunOut>& prof, const RunOut& aug,
-                       std::vector<std::function<void()>>* tasks) {
+  auto heldTasks = [&](const RunSpec& ref, int e, Cand* c, const RunOut& aug, std::vector<std::function<void()>>* tasks) {
     const EffectInfo& f = fx[e];
     c->est = Eigen::VectorXd::Zero(f.n);
     c->sig = Eigen::VectorXd::Zero(f.n);
     c->informed.assign(f.n, false);
     if (f.kind == EffectKind::kNoise) {
-      // Profile over q (maximised over K at each q); a parabola through the best point and
-      // its neighbours gives the estimate and its sigma.
-      double prof_q[4];
-      for (int g = 0; g < 4; ++g)
-        prof_q[g] = std::max({prof[3 * g].loglik, prof[3 * g + 1].loglik, prof[3 * g + 2].loglik});
-      int b = 0;
-      for (int g = 1; g < 4; ++g)
-        if (prof_q[g] > prof_q[b]) b = g;
-      double q = q_grid[b] * f.ref[0], sq = f.prior[0];
-      if (b > 0 && b + 1 < 4) {
-        const double x0 = q_grid[b - 1] * f.ref[0], x1 = q_grid[b] * f.ref[0], x2 = q_grid[b + 1] * f.ref[0];
-        const double y0 = prof_q[b - 1], y1 = prof_q[b], y2 = prof_q[b + 1];
-        const double d1 = (y1 - y0) / (x1 - x0), d2 = (y2 - y1) / (x2 - x1);
-        const double a = (d2 - d1) / (x2 - x0);  // half the second derivative
-        if (a < 0) {
-          q = std::clamp(0.5 * (x0 + x1) - d1 / (2 * a), x0, x2);
-          sq = std::sqrt(-1.0 / (2 * a));
+      tasks->push_back([&, ref, e, c] {
+        const EffectInfo& fe = fx[e];
+        auto argmax = [&] {
+          std::size_t b = 0;
+          for (std::size_t g = 1; g < c->profile.size(); ++g)
+            if (c->profile[g][1] > c->profile[b][1]) b = g;
+          return b;
+        };
+        const double qb = c->profile[argmax()][0];
+        if (qb > 0) {  // refine: half and twice the best q
+          c->profile.push_back(profileAtQ(ref, e, 0.5 * qb));
+          c->profile.push_back(profileAtQ(ref, e, 2.0 * qb));
         }
-      }
-      c->est[0] = q;
-      c->sig[0] = sq;
-      c->informed[0] = sq < kInformed * f.prior[0];
-      c->ll_ref = prof_q[0];
-      c->ll = prof_q[b];
-      c->k = c->informed[0] ? 1 : 0;
+        std::sort(c->profile.begin(), c->profile.end(), [](const auto& x, const auto& y) { return x[0] < y[0]; });
+        const std::size_t b = argmax();
+        c->ll = c->profile[b][1];
+        c->k_mult = c->profile[b][2];
+        c->q_best = c->profile[b][0];
+        // The profile is not smooth (gating decisions flip as q and K change), so a
+        // least-squares quadratic through every point (the peaks over K) gives the estimate,
+        // and its sigma adds the fit's own uncertainty (delta method, the points' scatter)
+        // to the curvature's. The test uses the fitted gain, not the best point's: the
+        // largest of several jagged values is biased up.
+        double q = c->profile[b][0], sq = fe.prior[0], gain = 0;
+        const int np = static_cast<int>(c->profile.size());
+        const double scale = fe.ref[0];
+        Eigen::MatrixXd a(np, 3);
+        Eigen::VectorXd y(np);
+        for (int i = 0; i < np; ++i) {
+          const double u = c->profile[i][0] / scale;
+          a.row(i) << 1.0, u, u * u;
+          y[i] = c->profile[i][3];
+        }
+        if (np >= 4) {
+          const Eigen::Matrix3d ata = a.transpose() * a;
+          const auto ldlt = ata.ldlt();
+          const Eigen::Vector3d co = ldlt.solve(a.transpose() * y);
+          if (ldlt.info() == Eigen::Success && ldlt.isPositive() && co[2] < 0) {
+            const double u_max = c->profile.back()[0] / scale;
+            const double u = std::clamp(-co[1] / (2 * co[2]), 0.0, u_max);
+            const Eigen::VectorXd r = y - a * co;
+            const double s2 = r.squaredNorm() / std::max(1, np - 3);
+            const Eigen::Matrix3d cov = s2 * ldlt.solve(Eigen::Matrix3d::Identity());
+            const Eigen::Vector3d g(0, -1 / (2 * co[2]), co[1] / (2 * co[2] * co[2]));
+            const double var_fit = g.dot(cov * g), var_stat = -1 / (2 * co[2]);
+            q = u * scale;
+            sq = std::sqrt(var_stat + var_fit) * scale;
+            gain = std::max(0.0, co[1] * u + co[2] * u * u);
+          }
+        }
+        c->ll_ref = c->ll - gain;
+        c->est[0] = q;
+        c->sig[0] = sq;
+        c->informed[0] = q > 0 && sq < kInformed * fe.prior[0];
+        c->k = c->informed[0] ? 1 : 0;
+      });
       return;
     }
     for (int i = 0; i < f.n; ++i) {
@@ -672,65 +787,79 @@ bool diagnoseDrive(const Odolog& log, const DiagnoseOptions& opt, json* out, std
   RunSpec ref0 = en.nominalSpec(k_hat, false);
   ref0.scored = &scored;
   std::vector<Cand> cand(ne);
-  std::vector<std::vector<RunOut>> prof(ne);
   std::vector<RunOut> aug(ne);
   std::vector<std::function<void()>> tasks;
-  for (int e = 0; e < ne; ++e) augmentTasks(ref0, l0, e, &cand[e], &prof[e], &aug[e], &tasks);
+  for (int e = 0; e < ne; ++e) augmentTasks(ref0, l0, e, &cand[e], &aug[e], &tasks);
   runParallel(tasks, opt.threads);
   tasks.clear();
-  for (int e = 0; e < ne; ++e) heldTasks(ref0, e, &cand[e], prof[e], aug[e], &tasks);
+  for (int e = 0; e < ne; ++e) heldTasks(ref0, e, &cand[e], aug[e], &tasks);
   runParallel(tasks, opt.threads);
   tasks.clear();
 
-  // 5. Held-out comparison (--with): fit on the kept blocks, evaluate on the held-out ones.
-  RunOut ho_before, ho_after;
+  // 5. Held-out comparison (--with), cross-validated over time: in each fold, fit on the
+  //    kept data (OF free), then evaluate with everything fitted held, predicting the
+  //    fold's held-out blocks. Before (the model as it is) and after (with the effects).
+  const int folds = en.folds();
+  std::vector<RunOut> fit_before(folds), fit_after(folds), ev_before(folds), ev_after(folds);
+  std::vector<RunSpec> fit_after_spec(folds);
   if (!with_idx.empty()) {
-    tasks.push_back([&] {
-      RunSpec fit = en.nominalSpec(en.initialK(), true);
-      fit.mode = Mode::kFit;
-      const RunOut f = en.run(fit);
-      RunSpec ev = en.nominalSpec(f.k, false);
-      ev.mode = Mode::kEval;
-      ev.hold_drive = true;
-      ev.drive_val = f.x.template segment<Drive::kParams>(kD);
-      ho_before = en.run(ev);
-    });
-    tasks.push_back([&] {
-      RunSpec fit = en.nominalSpec(en.initialK(), true);
-      fit.mode = Mode::kFit;
-      for (int e : with_idx) {
-        if (fx[e].kind == EffectKind::kNoise) continue;
-        en.freeEffect(&fit, e);
-      }
-      // A noise effect cannot be augmented: its fit is the profile over the kept blocks.
-      for (int e : with_idx) {
-        if (fx[e].kind != EffectKind::kNoise) continue;
-        double best = -std::numeric_limits<double>::infinity(), best_q = 0;
-        for (double g : {0.0, 0.5, 2.0, 8.0}) {
-          RunSpec s = fit;
-          s.eff_val[fx[e].offset - kE] = g * fx[e].ref[0];
-          const RunOut r = en.run(s);  // scored on the kept blocks only
-          if (r.loglik > best) {
-            best = r.loglik;
-            best_q = g * fx[e].ref[0];
+    for (int f = 0; f < folds; ++f) {
+      tasks.push_back([&, f] {
+        RunSpec fit = en.nominalSpec(en.initialK(), true);
+        fit.mode = Mode::kFit;
+        fit.fold = f;
+        fit_before[f] = en.run(fit);
+      });
+      tasks.push_back([&, f] {
+        RunSpec fit = en.nominalSpec(en.initialK(), true);
+        fit.mode = Mode::kFit;
+        fit.fold = f;
+        for (int e : with_idx)
+          if (fx[e].kind != EffectKind::kNoise) en.freeEffect(&fit, e);
+        // A noise effect cannot be augmented: its fit is the profile over the kept data.
+        for (int e : with_idx) {
+          if (fx[e].kind != EffectKind::kNoise) continue;
+          double best = -std::numeric_limits<double>::infinity(), best_q = 0;
+          for (double g : q_grid) {
+            RunSpec s = fit;
+            s.eff_val[fx[e].offset - kE] = g * fx[e].ref[0];
+            const RunOut r = en.run(s);  // scored on the kept data only
+            if (r.loglik > best) {
+              best = r.loglik;
+              best_q = g * fx[e].ref[0];
+            }
           }
+          fit.eff_val[fx[e].offset - kE] = best_q;
         }
-        fit.eff_val[fx[e].offset - kE] = best_q;
-      }
-      const RunOut f = en.run(fit);
+        fit_after_spec[f] = fit;
+        fit_after[f] = en.run(fit);
+      });
+    }
+    runParallel(tasks, opt.threads);
+    tasks.clear();
+    auto evalSpec = [&](const RunOut& f, int fold) {
       RunSpec ev = en.nominalSpec(f.k, false);
       ev.mode = Mode::kEval;
+      ev.fold = fold;
       ev.hold_drive = true;
       ev.drive_val = f.x.template segment<Drive::kParams>(kD);
-      for (int e : with_idx)
-        for (int i = 0; i < fx[e].n; ++i) {
-          const int k = fx[e].offset + i;
-          ev.eff_val[k - kE] = fx[e].kind == EffectKind::kNoise ? fit.eff_val[k - kE] : f.x[k];
-        }
-      ho_after = en.run(ev);
-    });
+      return ev;
+    };
+    for (int f = 0; f < folds; ++f) {
+      tasks.push_back([&, f] { ev_before[f] = en.run(evalSpec(fit_before[f], f)); });
+      tasks.push_back([&, f] {
+        RunSpec ev = evalSpec(fit_after[f], f);
+        for (int e : with_idx)
+          for (int i = 0; i < fx[e].n; ++i) {
+            const int k = fx[e].offset + i;
+            ev.eff_val[k - kE] = fx[e].kind == EffectKind::kNoise ? fit_after_spec[f].eff_val[k - kE] : fit_after[f].x[k];
+          }
+        ev_after[f] = en.run(ev);
+      });
+    }
   }
   runParallel(tasks, opt.threads);
+  tasks.clear();
 
   // Joint information (the joint run's posterior, all augmentable candidates free):
   // for a pair of candidates, condition on the others (a model with only that pair added
@@ -804,31 +933,64 @@ bool diagnoseDrive(const Odolog& log, const DiagnoseOptions& opt, json* out, std
     return a.bic > b.bic;
   };
   std::sort(rows.begin(), rows.end(), better);
-  // A further effect is named only if it still explains the data once the best one is in
-  // the model (forward selection, one step): the others of a big effect's residue are not.
-  if (rows.size() > 1 && rows[0].significant) {
-    const int top = rows[0].e;
+  // Conditional tests: each of `others` scored against a reference that has `given` in
+  // the model at its estimate (a noise effect with its K multiplier too).
+  auto conditional = [&](int given, const std::vector<int>& others) {
     RunSpec ref1 = ref0;
-    for (int i = 0; i < fx[top].n; ++i)
-      if (cand[top].informed[i]) ref1.eff_val[fx[top].offset - kE + i] = cand[top].est[i];
-
+    for (int i = 0; i < fx[given].n; ++i)
+      if (cand[given].informed[i]) ref1.eff_val[fx[given].offset - kE + i] = cand[given].est[i];
+    if (fx[given].kind == EffectKind::kNoise) {
+      ref1.eff_val[fx[given].offset - kE] = cand[given].q_best;
+      ref1.k = ref0.k * cand[given].k_mult;
+    }
     std::vector<Cand> c2(ne);
-    std::vector<std::vector<RunOut>> prof2(ne);
     std::vector<RunOut> aug2(ne);
-    std::vector<int> second;
-    for (std::size_t i = 1; i < rows.size(); ++i)
-      if (rows[i].significant) second.push_back(rows[i].e);
-    for (int e : second) augmentTasks(ref1, cand[top].ll, e, &c2[e], &prof2[e], &aug2[e], &tasks);
+    for (int e : others) augmentTasks(ref1, cand[given].ll, e, &c2[e], &aug2[e], &tasks);
     runParallel(tasks, opt.threads);
     tasks.clear();
-    for (int e : second) heldTasks(ref1, e, &c2[e], prof2[e], aug2[e], &tasks);
+    for (int e : others) heldTasks(ref1, e, &c2[e], aug2[e], &tasks);
     runParallel(tasks, opt.threads);
     tasks.clear();
+    std::vector<Row> res(ne);
+    for (int e : others) {
+      res[e] = Row{e, 0, 0, 0, 1, 0, false, false};
+      res[e].significant = test(c2[e], &res[e]);
+    }
+    return res;
+  };
+  // The best two, each given the other: when the first loses its evidence once the second
+  // is in the model but the second keeps its own, the second explains the data and goes
+  // first (a noise effect that soaks up a systematic drift, for one); when each explains
+  // the other away, the two are reported as confusable. Then forward selection, one step:
+  // a further effect is named only if it still explains the data once the best one is in
+  // the model (the others of a big effect's residue are not).
+  std::vector<std::vector<int>> mutual(ne);
+  if (rows.size() > 1 && rows[0].significant) {
+    auto significantAfterTop = [&] {
+      std::vector<int> v;
+      for (std::size_t i = 1; i < rows.size(); ++i)
+        if (rows[i].significant) v.push_back(rows[i].e);
+      return v;
+    };
+    std::vector<int> second = significantAfterTop();
+    std::vector<Row> given_top = conditional(rows[0].e, second);
+    if (rows[1].significant) {
+      const int a = rows[0].e, b2 = rows[1].e;
+      const bool a_given_b = conditional(b2, {a})[a].significant;
+      const bool b_given_a = given_top[b2].significant;
+      if (!a_given_b && b_given_a) {
+        std::swap(rows[0], rows[1]);
+        second = significantAfterTop();
+        given_top = conditional(rows[0].e, second);
+      } else if (!a_given_b && !b_given_a) {
+        mutual[a].push_back(b2);
+        mutual[b2].push_back(a);
+      }
+    }
     for (Row& r : rows) {
       if (std::find(second.begin(), second.end(), r.e) == second.end()) continue;
-      Row cr = r;
-      r.significant = test(c2[r.e], &cr);
-      r.cond_p = cr.p;
+      r.significant = given_top[r.e].significant;
+      r.cond_p = given_top[r.e].p;
     }
     std::stable_sort(rows.begin() + 1, rows.end(), better);
   }
@@ -837,8 +999,13 @@ bool diagnoseDrive(const Odolog& log, const DiagnoseOptions& opt, json* out, std
     const EffectInfo& f = fx[r.e];
     json confused = json::array();
     const std::vector<int> pi = paramIdx(r.e);
-    for (int o = 0; o < ne && !pi.empty(); ++o) {
-      if (o == r.e || fx[o].kind == EffectKind::kNoise) continue;
+    for (int o = 0; o < ne; ++o) {
+      if (o == r.e) continue;
+      if (std::find(mutual[r.e].begin(), mutual[r.e].end(), o) != mutual[r.e].end()) {
+        confused.push_back(fx[o].name);  // each explains the other away (conditional tests)
+        continue;
+      }
+      if (pi.empty() || fx[o].kind == EffectKind::kNoise) continue;
       const std::vector<int> po = paramIdx(o);
       if (!po.empty() && canonical(pi, po) > 0.9) confused.push_back(fx[o].name);
     }
@@ -861,6 +1028,11 @@ bool diagnoseDrive(const Odolog& log, const DiagnoseOptions& opt, json* out, std
                                 : f.kind == EffectKind::kNoise ? "noise"
                                                                : "measurement"},
                        {"description", f.description}});
+    if (f.kind == EffectKind::kNoise) {
+      json prof = json::array();
+      for (const auto& pt : c.profile) prof.push_back({{"q", pt[0]}, {"loglik", pt[1]}, {"k_multiplier", pt[2]}});
+      ranking.back()["profile"] = prof;
+    }
   }
 
   // Excitation: achievable sigmas of the drive parameters (the free baseline) and of each
@@ -948,19 +1120,78 @@ bool diagnoseDrive(const Odolog& log, const DiagnoseOptions& opt, json* out, std
   const bool consistent = !any_sig && st.consistent;
 
   json heldout = nullptr;
+  std::vector<HeldScan> held_before, held_after;  // every fold's predicted held-out scans
   if (!with_idx.empty()) {
+    RunOut before, after;  // the folds' sums
+    auto add = [](const RunOut& r, RunOut* sum, std::vector<HeldScan>* scans) {
+      sum->ho_nis += r.ho_nis;
+      sum->ho_nll += r.ho_nll;
+      sum->ho_sq += r.ho_sq;
+      sum->ho_pos_sq += r.ho_pos_sq;
+      sum->ho_head_sq += r.ho_head_sq;
+      sum->ho_n += r.ho_n;
+      sum->ho_nsq += r.ho_nsq;
+      sum->ho_nt += r.ho_nt;
+      scans->insert(scans->end(), r.ho_scans.begin(), r.ho_scans.end());
+    };
+    for (int f = 0; f < folds; ++f) {
+      add(ev_before[f], &before, &held_before);
+      add(ev_after[f], &after, &held_after);
+    }
+    auto byTime = [](const HeldScan& a, const HeldScan& b) { return a.t < b.t; };
+    std::sort(held_before.begin(), held_before.end(), byTime);
+    std::sort(held_after.begin(), held_after.end(), byTime);
     auto metrics = [](const RunOut& r) {
       json m;
       m["nis_mean"] = r.ho_n > 0 ? json(r.ho_nis / double(r.ho_n)) : json(nullptr);
-      m["innovation_rms_m"] = r.ho_n > 0 ? json(std::sqrt(r.ho_sq / double(r.ho_n))) : json(nullptr);
+      m["nll_mean"] = r.ho_n > 0 ? json(r.ho_nll / double(r.ho_n)) : json(nullptr);
+      m["innovation_rms_m"] = r.ho_nsq > 0 ? json(std::sqrt(r.ho_sq / double(r.ho_nsq))) : json(nullptr);
       m["pose_rmse_m"] = r.ho_nt > 0 ? json(std::sqrt(r.ho_pos_sq / double(r.ho_nt))) : json(nullptr);
       m["heading_rmse_rad"] = r.ho_nt > 0 ? json(std::sqrt(r.ho_head_sq / double(r.ho_nt))) : json(nullptr);
       return m;
     };
+    // Paired by block: each block's mean after minus before, of the NIS and of the pose
+    // error. A consistent change over the blocks (not one lucky block) is what an effect
+    // that is really there gives: z is the mean change over its standard error.
+    const auto& bl = en.blocks();
+    auto paired = [&](double HeldScan::*field) {
+      std::vector<double> sb(bl.size(), 0), sa(bl.size(), 0);
+      std::vector<int> cb(bl.size(), 0), ca(bl.size(), 0);
+      auto blockOf = [&](double t) {
+        const auto it = std::upper_bound(bl.begin(), bl.end(), t, [](double v, const auto& x) { return v < x.first; });
+        return it == bl.begin() || t >= std::prev(it)->second ? -1 : static_cast<int>(it - bl.begin()) - 1;
+      };
+      for (const HeldScan& h : held_before)
+        if (const int k = blockOf(h.t); k >= 0 && std::isfinite(h.*field)) sb[k] += h.*field, ++cb[k];
+      for (const HeldScan& h : held_after)
+        if (const int k = blockOf(h.t); k >= 0 && std::isfinite(h.*field)) sa[k] += h.*field, ++ca[k];
+      std::vector<double> d;
+      int improved = 0;
+      for (std::size_t k = 0; k < bl.size(); ++k) {
+        if (cb[k] == 0 || ca[k] == 0) continue;
+        d.push_back(sa[k] / ca[k] - sb[k] / cb[k]);
+        improved += d.back() < 0 ? 1 : 0;
+      }
+      double dm = 0, dv = 0;
+      for (double x : d) dm += x / double(d.size());
+      for (double x : d) dv += (x - dm) * (x - dm) / std::max(1.0, double(d.size()) - 1);
+      json r = {{"blocks", d.size()},
+                {"blocks_better", improved},
+                {"change_mean", d.empty() ? json(nullptr) : json(dm)},
+                {"change_z", d.size() > 1 && dv > 0 ? json(dm / std::sqrt(dv / double(d.size()))) : json(nullptr)}};
+      return r;
+    };
     json blocks = json::array();
-    for (const auto& h : en.heldout()) blocks.push_back({h.first, h.second});
-    heldout = {{"with", opt.with}, {"blocks", blocks}, {"gap_s", opt.gap_s}, {"reanchor_s", opt.reanchor_s},
-               {"before", metrics(ho_before)}, {"after", metrics(ho_after)}};
+    for (const auto& h : bl) blocks.push_back({h.first, h.second});
+    heldout = {{"with", opt.with},
+               {"folds", folds},
+               {"blocks", blocks},
+               {"gap_s", opt.gap_s},
+               {"reanchor_s", opt.reanchor_s},
+               {"before", metrics(before)},
+               {"after", metrics(after)},
+               {"paired", {{"nis", paired(&HeldScan::nis)}, {"nll", paired(&HeldScan::nll)},
+                           {"pose_err_m", paired(&HeldScan::pose_err)}}}};
   }
 
   json walls = json::array();
@@ -991,6 +1222,21 @@ bool diagnoseDrive(const Odolog& log, const DiagnoseOptions& opt, json* out, std
 
   if (!opt.out_dir.empty()) {
     if (!writeDiagnoseCsv(opt.out_dir, base.scans, base.beams, base.traj, error)) return false;
+    if (!with_idx.empty()) {
+      for (const auto& [name, rows_] : {std::pair{"heldout_before.csv", &held_before}, {"heldout_after.csv", &held_after}}) {
+        std::ofstream f(std::filesystem::path(opt.out_dir) / name);
+        f << "t,nis,nll,pose_err_m\n";
+        char buf[96];
+        for (const HeldScan& h : *rows_) {
+          std::snprintf(buf, sizeof buf, "%.3f,%.4f,%.4f,%.5f\n", h.t, h.nis, h.nll, h.pose_err);
+          f << buf;
+        }
+        if (!f) {
+          *error = "cannot write '" + (std::filesystem::path(opt.out_dir) / name).string() + "'";
+          return false;
+        }
+      }
+    }
   }
   return true;
 }

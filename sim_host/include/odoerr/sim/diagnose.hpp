@@ -26,9 +26,13 @@ struct DiagnoseOptions {
   double k0_w = 1e-4;      ///< diff: initial K_w (m)
   double k0_rho = 1e-3;    ///< sync: initial K_rho (m)
   double k0_theta = 1e-4;  ///< sync: initial K_theta (rad^2/m)
-  int blocks = 8;          ///< held-out blocks, one in the middle of each 1/blocks of the drive
-  double block_s = 4.0;    ///< length of a held-out block (s)
-  double gap_s = 1.0;      ///< data this close to a held-out block is not used to fit
+  // Held-out comparison: k-fold cross-validation over time. After a warm-up the drive is
+  // cut into blocks of block_s; fold f holds out every folds-th block (f, f + folds, ...),
+  // so that across the folds every block is held out exactly once.
+  int folds = 4;           ///< cross-validation folds
+  double warmup_s = 10.0;  ///< never held out: the filter starts here
+  double block_s = 2.0;    ///< length of a held-out block (s)
+  double gap_s = 0.5;      ///< data this close to a held-out block is not used to fit
   double reanchor_s = 2.0; ///< in held-out blocks one scan (or fix) per this is fused (the rest predicted)
 };
 
