@@ -2,8 +2,13 @@
 // physics of the contract (docs/effect-catalogue.md) at a few points, and composition.
 #include <gtest/gtest.h>
 
+#include <cstdio>
+#include <random>
+
 #include "odoerr/akf.hpp"
 #include "odoerr/effects/catalogue.hpp"
+#include "odoerr/estimator.hpp"
+#include "reverse_scale.hpp"  // docs/examples: the tutorial's worked example
 
 namespace odoerr {
 namespace {
@@ -25,9 +30,8 @@ MotionContext<D> testContext() {
 }
 
 template <typename E>
-void checkMotionJacobians(const E& eff, const std::vector<D>& p0) {
+void checkMotionJacobians(const E& eff, const std::vector<D>& p0, const Increment<D>& in = {0.012, 0.004, 0.0003}) {
   const MotionContext<D> ctx = testContext();
-  const Increment<D> in{0.012, 0.004, 0.0003};
   Eigen::Matrix<D, 3, 3> d_in;
   Eigen::Matrix<D, 3, E::kParams> d_p;
   (void)eff.apply(in, p0.data(), ctx, d_in, d_p);
@@ -237,6 +241,68 @@ TEST(Effects, HeldParameterStaysExactlyConstant) {
   EXPECT_EQ(akf.state()[MM::offsetOf<RangeBias>()], 0.01);
   EXPECT_EQ(akf.covariance()(MM::offsetOf<RangeBias>(), MM::offsetOf<RangeBias>()), 0.0);
   EXPECT_EQ(akf.counters().bad_covariance, 0u);
+}
+
+// docs/writing-an-effect.md: the worked example is right (its Jacobians, backwards and
+// forwards) and, composed into an estimator at compile time, is estimated from a drive
+// that reverses.
+TEST(EffectTutorial, ReverseScaleJacobians) {
+  checkMotionJacobians(examples::ReverseScale{}, {0.03}, Increment<D>{-0.012, 0.004, 0.0003});
+  checkMotionJacobians(examples::ReverseScale{}, {0.03}, Increment<D>{0.012, 0.004, 0.0003});
+  Eigen::Matrix<D, 3, 3> di;
+  Eigen::Matrix<D, 3, 1> dp;
+  const D k = 0.03;
+  EXPECT_DOUBLE_EQ(examples::ReverseScale{}.apply(Increment<D>{-0.01, 0, 0}, &k, testContext(), di, dp).rho, -0.0103);
+  EXPECT_DOUBLE_EQ(examples::ReverseScale{}.apply(Increment<D>{0.01, 0, 0}, &k, testContext(), di, dp).rho, 0.01);
+}
+
+TEST(EffectTutorial, ReverseScaleIsEstimatedFromADriveThatReverses) {
+  using M = Model<DiffDrive<D>, examples::ReverseScale>;
+  using Est = Estimator<M>;
+  static_assert(M::kStates == 7, "the pose, three drive parameters and the effect's one");
+  constexpr int kK = M::offsetOf<examples::ReverseScale>();
+  typename Est::MapT map;
+  ASSERT_TRUE(map.add({0, 0, 10, 0}) && map.add({10, 0, 10, 10}) && map.add({10, 10, 0, 10}) && map.add({0, 10, 0, 0}));
+  typename Est::LaserT laser;
+  ASSERT_TRUE(laser.init(LaserConfig<D>{}));
+  DiffDrive<D> drive;
+  drive.wheelbase = 0.5;
+  Est est(M(drive), map, laser);
+  M::StateVec x0 = M::StateVec::Zero();
+  x0 << 5, 5, 0.3, 0, 0, 0, 0;
+  M::setNominal(x0);  // the drive parameters at 1, the effect at 0
+  M::StateVec sig = M::StateVec::Constant(1e-3);
+  sig[kK] = examples::ReverseScale::kPriorSigma[0];
+  typename Est::OfT::KVec k0 = Est::OfT::KVec::Constant(1e-6);
+  est.init(x0, sig.cwiseAbs2().asDiagonal(), k0, (k0 * 0.1).cwiseAbs2().asDiagonal());
+  est.freezeNonSystematic(true);
+
+  // The truth: 1 m forwards, 1 m back, 15 times, travelling 4 % further backwards.
+  const D k_true = 0.04;
+  D x = 5, y = 5, th = 0.3;
+  std::mt19937 rng(7);
+  std::normal_distribution<D> noise(0, 0.03);
+  std::vector<D> ranges(36);
+  const auto& lc = laser.config();
+  for (int i = 0; i < 3000; ++i) {
+    const D dir = (i / 100) % 2 == 0 ? 1 : -1;
+    const D rho = 0.01 * dir * (dir < 0 ? 1 + k_true : 1);
+    x += rho * std::cos(th);
+    y += rho * std::sin(th);
+    const bool scan = i % 10 == 9;
+    for (int b = 0; scan && b < 36; ++b) {
+      const RayHit<D> hit = map.cast(x, y, th + lc.angle_min + b * lc.angle_inc);
+      ASSERT_TRUE(hit.hit);
+      ranges[b] = hit.range + noise(rng);
+    }
+    (void)est.cycle(typename M::Input{0.01 * dir, 0.01 * dir}, scan ? ranges.data() : nullptr);
+  }
+  const D k_est = est.akf().state()[kK], k_sig = std::sqrt(est.akf().covariance()(kK, kK));
+  std::printf("reverse_scale: estimate %.4f +- %.4f (truth %.2f)\n", k_est, k_sig, k_true);
+  EXPECT_LT(k_sig, 0.005) << "the drive determines the effect";
+  EXPECT_NEAR(k_est, k_true, 3 * k_sig);
+  EXPECT_NEAR(est.akf().state()[0], x, 0.02);
+  EXPECT_NEAR(est.akf().state()[1], y, 0.02);
 }
 
 }  // namespace

@@ -35,9 +35,11 @@ struct ModelOf<D, std::tuple<E...>> {
 };
 
 constexpr double kCap = 25.0;     // NIS cap of one innovation in the likelihood (= the gate)
-constexpr double kAlpha = 1e-3;    // test level of one candidate (before the BIC condition)
+constexpr double kAlpha = 1e-3;    // test level of one candidate's likelihood ratio (before the BIC condition)
+constexpr double kAlphaWald = 1e-2;  // test level of its Wald statistic (the estimate against its own sigma)
 constexpr double kInformed = 0.7;  // a parameter is informed when the drive shrinks its prior sigma below this
 constexpr double kHeld = 0.0;     // prior sigma of a parameter held at a value (exactly constant)
+constexpr double kLostS = 1.0;    // a fit that fused scans with under a quarter of their beams this long lost the robot
 
 /// Advice for a parameter or effect that the drive cannot determine.
 const char* adviceFor(const std::string& name) {
@@ -125,6 +127,9 @@ class Engine {
     std::vector<BeamRec> beams;
     std::vector<TrajRec> traj;
     std::vector<std::array<double, 2>> obs;  // OF observable (z - m) / sqrt(s), per component
+    /// The longest time the filter fused scans with under a quarter of their beams used
+    /// (every other one gated or unpredictable): it had lost the robot.
+    double lost_s = 0;
   };
 
   Engine(const Odolog& log, const DiagnoseOptions& opt) : log_(log), opt_(opt) {}
@@ -268,6 +273,7 @@ class Engine {
     double dist = 0;
     double last_anchor = -1e300;
     std::optional<Est> fork;  // kEval: the copy that predicts a held-out block from its anchor
+    double lost_since = -1;   // time of the first scan of the current lost stretch (-1: tracking)
     const double c_m = lc_.mount_x, s_m = lc_.mount_y;
     for (const Event& ev : events_) {
       const typename Drive::Input u{ev.a, ev.b};
@@ -352,7 +358,13 @@ class Engine {
           (void)fork->measureStep(nullptr, typename Est::AkfT::NoObserver{});
           (void)est.measureStep(ranges.data(), typename Est::AkfT::NoObserver{});
         } else if (use) {
-          (void)est.measureStep(ranges.data(), observe);
+          const auto res = est.measureStep(ranges.data(), observe);
+          if (4 * res.scan.used < lc_.beams) {
+            if (lost_since < 0) lost_since = ev.t;
+            out.lost_s = std::max(out.lost_s, ev.t - lost_since);
+          } else {
+            lost_since = -1;
+          }
         } else {
           (void)est.measureStep(nullptr, typename Est::AkfT::NoObserver{});
         }
@@ -649,6 +661,7 @@ bool diagnoseDrive(const Odolog& log, const DiagnoseOptions& opt, json* out, std
     double ll = 0, ll_ref = 0;
     int k = 0;
     double k_mult = 1, q_best = 0;  ///< noise effect: its best profile point (whose likelihood is ll)
+    double wald = 0;                ///< Wald statistic of the informed parameters (k degrees of freedom)
     /// Noise effect: its profile, {q, best log-likelihood over K, its K multiplier, the
     /// parabola's peak over log K} per q.
     std::vector<std::array<double, 4>> profile;
@@ -765,6 +778,7 @@ bool diagnoseDrive(const Odolog& log, const DiagnoseOptions& opt, json* out, std
         c->sig[0] = sq;
         c->informed[0] = q > 0 && sq < kInformed * fe.prior[0];
         c->k = c->informed[0] ? 1 : 0;
+        c->wald = c->k > 0 ? (q / sq) * (q / sq) : 0.0;
       });
       return;
     }
@@ -774,6 +788,21 @@ bool diagnoseDrive(const Odolog& log, const DiagnoseOptions& opt, json* out, std
       c->sig[i] = std::sqrt(std::max(0.0, aug.p(k, k)));
       c->informed[i] = c->sig[i] < kInformed * f.prior[i];
       c->k += c->informed[i] ? 1 : 0;
+    }
+    // Wald statistic of the informed parameters: their estimate against their joint
+    // covariance in the augmented run.
+    if (c->k > 0) {
+      std::vector<int> idx;
+      for (int i = 0; i < f.n; ++i)
+        if (c->informed[i]) idx.push_back(i);
+      Eigen::VectorXd v(idx.size());
+      Eigen::MatrixXd pv(idx.size(), idx.size());
+      for (std::size_t a = 0; a < idx.size(); ++a) {
+        v[a] = c->est[idx[a]];
+        for (std::size_t b = 0; b < idx.size(); ++b) pv(a, b) = aug.p(f.offset + idx[a], f.offset + idx[b]);
+      }
+      const auto ldlt = pv.ldlt();
+      c->wald = ldlt.info() == Eigen::Success && ldlt.isPositive() ? std::max(0.0, v.dot(ldlt.solve(v))) : 0.0;
     }
     c->ll = c->ll_ref;
     if (c->k == 0) return;
@@ -909,6 +938,7 @@ bool diagnoseDrive(const Odolog& log, const DiagnoseOptions& opt, json* out, std
     int k;
     bool detectable, significant;
     double cond_p = -1;  ///< conditional test given the best effect (-1: not run)
+    double wald_p = 1;   ///< the Wald test's p-value
   };
   const double ln_n = std::log(double(n_innov));
   auto test = [&](const Cand& c, Row* r) {
@@ -917,7 +947,12 @@ bool diagnoseDrive(const Odolog& log, const DiagnoseOptions& opt, json* out, std
     r->lr = std::max(0.0, 2 * r->dll);
     r->bic = r->lr - r->k * ln_n;
     r->p = r->k > 0 ? chiSquareSf(r->lr, r->k) : 1.0;
-    return r->k > 0 && r->p < kAlpha && r->bic > 0;
+    r->wald_p = r->k > 0 ? chiSquareSf(c.wald, r->k) : 1.0;
+    // Both tests must agree. The likelihood is not smooth (gating decisions flip between
+    // runs, by tens of log-likelihood units), so the ratio alone took such jumps for
+    // evidence on clean drives; the Wald test asks whether the estimate itself stands
+    // clear of zero against its own sigma.
+    return r->k > 0 && r->p < kAlpha && r->bic > 0 && r->wald_p < kAlphaWald;
   };
   std::vector<Row> rows;
   for (int e = 0; e < ne; ++e) {
@@ -1017,6 +1052,7 @@ bool diagnoseDrive(const Odolog& log, const DiagnoseOptions& opt, json* out, std
                        {"bic_gain", r.bic},
                        {"p_value", r.p},
                        {"conditional_p_value", r.cond_p >= 0 ? json(r.cond_p) : json(nullptr)},
+                       {"wald_p_value", r.wald_p},
                        {"informed_params", r.k},
                        {"informed", c.informed},
                        {"estimate", ev},
@@ -1134,7 +1170,26 @@ bool diagnoseDrive(const Odolog& log, const DiagnoseOptions& opt, json* out, std
       sum->ho_nt += r.ho_nt;
       scans->insert(scans->end(), r.ho_scans.begin(), r.ho_scans.end());
     };
+    // A fold whose fit lost the robot (dead-reckoning through a held-out block) has no
+    // meaningful parameters: it is left out of both sides and reported.
+    json fits = json::array(), failed = json::array();
     for (int f = 0; f < folds; ++f) {
+      json est_after = json::object();
+      for (int e : with_idx) {
+        std::vector<double> v;
+        for (int i = 0; i < fx[e].n; ++i) {
+          const int k = fx[e].offset + i;
+          v.push_back(fx[e].kind == EffectKind::kNoise ? fit_after_spec[f].eff_val[k - kE] : fit_after[f].x[k]);
+        }
+        est_after[fx[e].name] = v;
+      }
+      const bool ok = fit_before[f].lost_s < kLostS && fit_after[f].lost_s < kLostS;
+      fits.push_back({{"fold", f}, {"used", ok}, {"lost_s_before", fit_before[f].lost_s},
+                      {"lost_s_after", fit_after[f].lost_s}, {"after_estimate", est_after}});
+      if (!ok) {
+        failed.push_back(f);
+        continue;
+      }
       add(ev_before[f], &before, &held_before);
       add(ev_after[f], &after, &held_after);
     }
@@ -1185,6 +1240,8 @@ bool diagnoseDrive(const Odolog& log, const DiagnoseOptions& opt, json* out, std
     for (const auto& h : bl) blocks.push_back({h.first, h.second});
     heldout = {{"with", opt.with},
                {"folds", folds},
+               {"folds_failed", failed},
+               {"fits", fits},
                {"blocks", blocks},
                {"gap_s", opt.gap_s},
                {"reanchor_s", opt.reanchor_s},

@@ -75,7 +75,6 @@ exit status 2 (line numbers count lines of the decompressed text); nothing is wr
 Other message types (PARAM, NEFF, comments, and any not named above) are skipped.
 """
 
-import argparse
 import gzip
 import hashlib
 import math
@@ -83,6 +82,9 @@ import os
 import re
 import sys
 import zlib
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from import_common import InputError, Parser, parse_number, run, write_atomic  # noqa: E402
 
 WHEEL_RADIUS_M = 0.0825
 TICKS_PER_REV = 4096
@@ -93,21 +95,7 @@ FIX_SIGMA = (0.03, 0.03, 0.02)
 TIME_STEP_MIN = 0.001      # s, the synthetic clock's smallest step
 ANCHOR_TOL = 1e-4          # m / rad: anchor ODOM must repeat the FLASER pose
 
-NUMBER_RE = re.compile(r"^[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?$")
 INT_RE = re.compile(r"^\d+$")
-
-
-class InputError(Exception):
-    """A malformed input; the message already names FILE:LINE."""
-
-
-def num(tok, where, what):
-    if not NUMBER_RE.match(tok):
-        raise InputError(f"{where}: {what}: '{tok}' is not a decimal number")
-    v = float(tok)
-    if not math.isfinite(v):
-        raise InputError(f"{where}: {what}: '{tok}' is not a finite number")
-    return v
 
 
 def wrap(a):
@@ -136,12 +124,12 @@ def parse_odom(f, where):
     # ODOM x y theta tv rv accel ipc_timestamp ipc_hostname logger_timestamp
     if len(f) != 10:
         raise InputError(f"{where}: ODOM takes 9 fields (x y theta tv rv accel ts host lts), got {len(f) - 1}")
-    x = num(f[1], where, "ODOM x")
-    y = num(f[2], where, "ODOM y")
-    th = num(f[3], where, "ODOM theta")
+    x = parse_number(f[1], where, "ODOM x")
+    y = parse_number(f[2], where, "ODOM y")
+    th = parse_number(f[3], where, "ODOM theta")
     for i, name in ((4, "tv"), (5, "rv"), (6, "accel"), (9, "logger_timestamp")):
-        num(f[i], where, f"ODOM {name}")
-    ts = num(f[7], where, "ODOM ipc_timestamp")
+        parse_number(f[i], where, f"ODOM {name}")
+    ts = parse_number(f[7], where, "ODOM ipc_timestamp")
     return x, y, th, ts, f[7]
 
 
@@ -153,11 +141,11 @@ def parse_flaser(f, where):
     if len(f) != n + 11:
         raise InputError(f"{where}: FLASER with {n} beams takes {n + 10} fields, got {len(f) - 1}")
     for i in range(2, 2 + n):
-        num(f[i], where, f"FLASER range {i - 1}")
-    p = [num(f[2 + n + i], where, name) for i, name in
+        parse_number(f[i], where, f"FLASER range {i - 1}")
+    p = [parse_number(f[2 + n + i], where, name) for i, name in
          enumerate(("x", "y", "theta", "odom_x", "odom_y", "odom_theta"))]
-    num(f[n + 10], where, "FLASER logger_timestamp")
-    ts = num(f[n + 8], where, "FLASER ipc_timestamp")
+    parse_number(f[n + 10], where, "FLASER logger_timestamp")
+    ts = parse_number(f[n + 8], where, "FLASER ipc_timestamp")
     if p[0:3] != p[3:6]:
         raise InputError(f"{where}: FLASER pose and odom pose differ: not the SLAM-corrected layout "
                          f"this importer understands (see the docstring)")
@@ -336,27 +324,6 @@ class Converter:
         return "\n".join(h + self.body) + "\n"
 
 
-def write_atomic(path, text):
-    d = os.path.dirname(os.path.abspath(path))
-    tmp = os.path.join(d, f".{os.path.basename(path)}.tmp{os.getpid()}")
-    try:
-        with open(tmp, "w", encoding="utf-8", newline="\n") as f:
-            f.write(text)
-        os.replace(tmp, path)
-    except OSError as e:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise InputError(f"{path}: cannot write: {e.strerror or e}") from None
-
-
-class Parser(argparse.ArgumentParser):
-    def error(self, message):  # one line, exit 2 (argparse's own convention)
-        sys.stderr.write(f"{self.prog}: {message}\n")
-        sys.exit(2)
-
-
 def main(argv=None):
     ap = Parser(prog="carmen_to_odolog.py",
                 description="Convert the SLAM-corrected Intel Research Lab CARMEN log to odolog v1.")
@@ -386,7 +353,4 @@ def main(argv=None):
 
 
 if __name__ == "__main__":
-    try:
-        sys.exit(main())
-    except KeyboardInterrupt:
-        sys.exit(130)
+    run(main)

@@ -51,12 +51,14 @@ stderr and exit status 2; nothing is written then (the output is written to a te
 file and renamed only on success). Bad options also exit 2.
 """
 
-import argparse
 import hashlib
 import math
 import os
-import re
 import sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from import_common import InputError, Parser, parse_number, run, write_atomic  # noqa: E402
+
 
 WHEEL_DIAMETER_M = 0.084
 GEAR_RATIO = 43.7
@@ -66,26 +68,12 @@ INIT_SIGMA = (0.002, 0.002, 0.005)
 
 # A decimal number as odolog and the source write it; Python's float() alone would also
 # take "1_000", "infinity", "0x10"-like oddities, so the token is matched first.
-NUMBER_RE = re.compile(r"^[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?$")
 BOM = b"\xef\xbb\xbf"
-
-
-class InputError(Exception):
-    """A malformed input; the message already names FILE:LINE."""
 
 
 def fmt(v):
     """Short, exact-enough text for a configuration value (sigmas, periods)."""
     return repr(float(v)) if float(v) != int(v) else str(int(v))
-
-
-def parse_number(tok, where, what):
-    if not NUMBER_RE.match(tok):
-        raise InputError(f"{where}: {what}: '{tok}' is not a decimal number")
-    v = float(tok)
-    if not math.isfinite(v):
-        raise InputError(f"{where}: {what}: '{tok}' is not a finite number")
-    return v
 
 
 def read_rows(path):
@@ -181,27 +169,6 @@ def convert(rows, path, digest, period, sig_xy, sig_th):
     return "\n".join(out) + "\n", n_fix, cum_r, cum_l
 
 
-def write_atomic(path, text):
-    d = os.path.dirname(os.path.abspath(path))
-    tmp = os.path.join(d, f".{os.path.basename(path)}.tmp{os.getpid()}")
-    try:
-        with open(tmp, "w", encoding="utf-8", newline="\n") as f:
-            f.write(text)
-        os.replace(tmp, path)
-    except OSError as e:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise InputError(f"{path}: cannot write: {e.strerror or e}") from None
-
-
-class Parser(argparse.ArgumentParser):
-    def error(self, message):  # one line, exit 2 (argparse's own convention)
-        sys.stderr.write(f"{self.prog}: {message}\n")
-        sys.exit(2)
-
-
 def main(argv=None):
     ap = Parser(prog="optiodom_to_odolog.py",
                 description="Convert one OptiOdom run CSV to an odolog v1 file.")
@@ -231,7 +198,4 @@ def main(argv=None):
 
 
 if __name__ == "__main__":
-    try:
-        sys.exit(main())
-    except KeyboardInterrupt:
-        sys.exit(130)
+    run(main)

@@ -1082,6 +1082,12 @@ def build(args):
                  f"was fitted on the other folds' data and then predicted the block it had not seen. If the "
                  f"effects are real, the held-out predictions get better too: smaller errors and NLL, NIS "
                  f"closer to 1.</p>")
+        ff = h.get("folds_failed") or []
+        if ff:
+            s.append(f"<p class='note bad'>Left out of the comparison: fold(s) {E(', '.join(str(f) for f in ff))}. "
+                     f"There the fit lost the robot while it dead-reckoned through a held-out block, so its "
+                     f"parameters mean nothing. If this happens often, the drive has long stretches where the "
+                     f"laser cannot relocalise the robot.</p>")
         s.append(heldout_table(h))
         if held:
             s.append(figure(png_uri(plt, fig_heldout(plt, held, bl)), "held-out before and after",

@@ -1,5 +1,5 @@
 // odoerr core: the catalogue of candidate physical effects, as one compile-time list.
-// docs/effect-catalogue.md defines each; docs/diagnostics.md shows how to add one.
+// docs/effect-catalogue.md defines each; docs/writing-an-effect.md shows how to add one.
 #pragma once
 
 #include <tuple>
