@@ -66,6 +66,7 @@ TEST(Effects, MotionJacobiansMatchFiniteDifferences) {
   checkMotionJacobians(SpeedScale{}, {0.05});
   checkMotionJacobians(WheelEccentricity{}, {0.02, -0.01});
   checkMotionJacobians(Backlash{}, {0.004});
+  checkMotionJacobians(Backlash{}, {0.004}, Increment<D>{0.035, 0.004, 0.0003});  // leaves the span mid-cycle
   RegionScale reg;
   reg.x_max = 10;
   reg.y_max = 10;
@@ -92,6 +93,10 @@ TEST(Effects, MotionPhysicsFollowsTheContract) {
   // a reversal in this very cycle starts the span
   const Increment<D> back{-0.01, 0, 0};
   EXPECT_NEAR(Backlash{}.apply(back, &b, far, di, dp1).rho, -0.01 * (1 - b / 0.05), 1e-15);
+  // a cycle that leaves the span loses only on its part inside it
+  MotionContext<D> edge = ctx;
+  edge.s_rev = 0.045;
+  EXPECT_NEAR(Backlash{}.apply(in, &b, edge, di, dp1).rho, 0.01 - b * 0.005 / 0.05, 1e-15);
   // speed-dependent effects stay inactive when the cycle time is unknown
   MotionContext<D> no_dt = ctx;
   no_dt.dt = 0;
@@ -109,6 +114,27 @@ TEST(Effects, MotionPhysicsFollowsTheContract) {
   EXPECT_NEAR(m.s_rev, 0.01, 1e-15);
   EXPECT_NEAR(m.s_enc, 0.0005, 1e-15);
   EXPECT_NEAR(m.s_abs, 0.02, 1e-15);
+}
+
+TEST(Effects, BacklashLosesExactlyBPerReversalWhateverTheCycleLength) {
+  // Drive 0.3 m forwards, then 0.3 m back, in cycles of a given length: the travel lost
+  // after the reversal is b, however the cycles fall on the 5 cm span.
+  const D b = 0.01;
+  for (const D step : {0.003, 0.01, 0.013, 0.04, 0.07}) {
+    MotionContext<D> ctx;
+    Eigen::Matrix<D, 3, 3> di;
+    Eigen::Matrix<D, 3, 1> dp;
+    D lost = 0;
+    for (const D dir : {1.0, -1.0}) {
+      for (D done = 0; done < 0.3 - 1e-12; done += step) {
+        const Increment<D> in{dir * step, 0, 0};
+        const Increment<D> out = Backlash{}.apply(in, &b, ctx, di, dp);
+        if (dir < 0) lost += std::abs(in.rho) - std::abs(out.rho);
+        ctx.advance(in.rho, in.rho);
+      }
+    }
+    EXPECT_NEAR(lost, b, 1e-12) << "cycle length " << step;
+  }
 }
 
 TEST(Effects, TurnNoiseAddsHeadingVarianceOnly) {

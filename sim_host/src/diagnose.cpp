@@ -39,7 +39,8 @@ constexpr double kAlpha = 1e-3;    // test level of one candidate's likelihood r
 constexpr double kAlphaWald = 1e-2;  // test level of its Wald statistic (the estimate against its own sigma)
 constexpr double kInformed = 0.7;  // a parameter is informed when the drive shrinks its prior sigma below this
 constexpr double kHeld = 0.0;     // prior sigma of a parameter held at a value (exactly constant)
-constexpr double kLostS = 1.0;    // a fit that fused scans with under a quarter of their beams this long lost the robot
+constexpr double kLostS = 10.0;   // a fit that fused scans with under a quarter of their beams this long lost the robot
+                                  // (a model that misfits loses beams for a few seconds in a turn and recovers)
 
 /// Advice for a parameter or effect that the drive cannot determine.
 const char* adviceFor(const std::string& name) {

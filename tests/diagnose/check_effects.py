@@ -91,8 +91,12 @@ def check_effect(j, name, truth):
         # and NIS can rise while every prediction improved): printed, not judged.
         pb, pa = ho["before"]["pose_rmse_m"], ho["after"]["pose_rmse_m"]
         lb, la = ho["before"]["nll_mean"], ho["after"]["nll_mean"]
-        if 2 * len(ho["folds_failed"]) >= ho["folds"]:
-            fails.append("the fit lost the robot in folds %s of %d" % (ho["folds_failed"], ho["folds"]))
+        # A fold whose fit (before or after) lost the robot while it dead-reckoned through a
+        # held-out block is left out of both sides; the comparison then rests on the rest.
+        # A model that lacks a large effect loses the robot more easily, so this is
+        # conservative against the effect. No usable fold at all is a failure.
+        if len(ho["folds_failed"]) >= ho["folds"]:
+            fails.append("the fit lost the robot in every fold %s" % ho["folds_failed"])
         if row["kind"] == "motion" and pb is not None and pa is not None:
             if not pa < pb:
                 fails.append("held-out pose RMSE did not fall (%s -> %s)" % (pb, pa))

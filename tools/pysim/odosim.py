@@ -61,7 +61,7 @@ drive model's increment (rho, dtheta, side) before the pose moves:
     speed_scale k        rho    *= 1 + k |v|
     wheel_eccentricity a,b  rho *= 1 + a cos(phi) + b sin(phi), phi = s_enc / r_wheel
                             (s_enc: the encoders' cumulative signed travel, nominal constants)
-    backlash b           rho    *= 1 - b / 0.05   while s_rev < 0.05 m
+    backlash b           rho    *= 1 - (b / 0.05) * min(1, (0.05 - s_rev) / |rho|)   while s_rev < 0.05 m
     region_scale c0..c8  rho    *= 1 + c_j (3x3 grid over the map's bounding box)
     radius_drift g       rho    *= 1 + g s_abs / 100
     turn_noise q         dtheta += N(0, q |dtheta|)
@@ -190,7 +190,7 @@ EFFECTS = {
     "rotation_slip": (1, "motion", "k (s): dtheta *= 1 - k |w|"),
     "speed_scale": (1, "motion", "k (s/m): rho *= 1 + k |v|"),
     "wheel_eccentricity": (2, "motion", "a, b: rho *= 1 + a cos(phi) + b sin(phi)"),
-    "backlash": (1, "motion", "b (m): rho *= 1 - b/0.05 while s_rev < 0.05 m"),
+    "backlash": (1, "motion", "b (m): the travel inside 0.05 m after a reversal is scaled by 1 - b/0.05"),
     "region_scale": (9, "motion", "c0..c8: rho *= 1 + c_j on a 3x3 grid"),
     "radius_drift": (1, "motion", "g (per 100 m): rho *= 1 + g s_abs / 100"),
     "turn_noise": (1, "motion", "q (rad^2/rad): dtheta += N(0, q |dtheta|)"),
@@ -471,7 +471,10 @@ def simulate_motion(drive, n_steps, effects, path, rng_sched, rng_noise, rng_tur
             phi = s_enc / r_wheel
             f *= 1.0 + ecc_a * math.cos(phi) + ecc_b * math.sin(phi)
         if backlash and s_rev < 0.05:
-            f *= 1.0 - backlash / 0.05
+            # only the part of this step's travel inside the 5 cm span loses: exactly b
+            # per reversal, whatever the step length
+            frac = min(1.0, (0.05 - s_rev) / abs(travel)) if travel != 0.0 else 1.0
+            f *= 1.0 - backlash / 0.05 * frac
         if region is not None:
             col = min(2, max(0, int(math.floor(3.0 * (x - bx0) / (bx1 - bx0)))))
             row = min(2, max(0, int(math.floor(3.0 * (y - by0) / (by1 - by0)))))
