@@ -78,6 +78,17 @@ struct HeldScan {
   double t, nis, nll, pose_err;
 };
 
+/// One beam (or pose fix) of a predicted held-out measurement. Before and after are
+/// compared on the beams both predicted (matched by key), so that a model cannot improve
+/// its mean by leaving hard beams unpredicted.
+struct HeldBeam {
+  long long key;  ///< scan * 64 + beam; a pose fix: -(index + 1)
+  int scan;       ///< its HeldScan in the run
+  double nis, nll, nu2;
+  bool ok;        ///< predicted (a variance and a wall)
+  bool inside;    ///< inside the gate (its innovation counts in the innovation RMS)
+};
+
 struct Event {
   double t, dt, a, b;
   int scan = -1, pose = -1;
@@ -121,9 +132,10 @@ class Engine {
     StateVec x;
     StateMat p;
     KVec k;
-    double ho_nis = 0, ho_nll = 0, ho_sq = 0, ho_pos_sq = 0, ho_head_sq = 0;
-    long ho_n = 0, ho_nsq = 0, ho_nt = 0;  ///< held-out innovations, those inside the gate, truth samples
+    double ho_pos_sq = 0, ho_head_sq = 0;
+    long ho_nt = 0;                  ///< kEval: truth samples at the predicted measurements
     std::vector<HeldScan> ho_scans;  ///< kEval: every predicted held-out scan or fix
+    std::vector<HeldBeam> ho_beams;  ///< kEval: their beams
     std::vector<ScanRec> scans;
     std::vector<BeamRec> beams;
     std::vector<TrajRec> traj;
@@ -284,8 +296,6 @@ class Engine {
       bool use = true;      // fuse this event's measurement
       bool score = spec.mode == Mode::kFull;
       bool evaluate = false;  // held-out evaluation (predict, do not fuse)
-      double ev_nis = 0, ev_nll = 0;  // the evaluated scan's NIS and NLL sums, degrees of freedom
-      int ev_dof = 0;
       if (spec.mode == Mode::kFit) {
         use = !held && !nearHeldout(ev.t, spec.fold);
         score = use;
@@ -303,6 +313,7 @@ class Engine {
         evaluate = held && fork && (ev.scan >= 0 || ev.pose >= 0) && ev.t - last_anchor < opt_.reanchor_s;
       }
       Est& pe = evaluate ? *fork : est;  // the filter whose prediction is scored
+      const int held_scan = static_cast<int>(out.ho_scans.size());  // the HeldScan this event's beams belong to
       const auto& akf = pe.akf();
       const StateVec xm = akf.state();
       if (ev.scan >= 0) {
@@ -320,6 +331,7 @@ class Engine {
               out.loglik += -0.5 * (std::log(2 * kPi<double> * lc_.sigma * lc_.sigma) + kCap);
               ++out.n_innov;
             }
+            if (evaluate) out.ho_beams.push_back({static_cast<long long>(key), held_scan, 0, 0, 0, false, false});
             return;
           }
           const double nu = r.measured - r.predicted;
@@ -334,16 +346,9 @@ class Engine {
           }
           if (evaluate) {
             const double nll = 0.5 * (std::log(2 * kPi<double> * r.variance) + std::min(nis, kCap));
-            out.ho_nis += std::min(nis, kCap);
-            out.ho_nll += nll;
-            ev_nll += nll;
-            ++out.ho_n;
-            if (nis < kCap) {  // the innovation error of beams inside the gate (an outlier's size says nothing)
-              out.ho_sq += nu * nu;
-              ++out.ho_nsq;
-            }
-            ev_nis += std::min(nis, kCap);
-            ++ev_dof;
+            // the innovation error counts beams inside the gate (an outlier's size says nothing)
+            out.ho_beams.push_back(
+                {static_cast<long long>(key), held_scan, std::min(nis, kCap), nll, nu * nu, true, nis < kCap});
           }
           if (spec.record) {
             rec.nis_sum += std::min(nis, kCap);
@@ -367,6 +372,7 @@ class Engine {
             lost_since = -1;
           }
         } else {
+          lost_since = -1;  // not fusing (a held-out block or its gap) is not being lost
           (void)est.measureStep(nullptr, typename Est::AkfT::NoObserver{});
         }
         if (spec.record && use && !evaluate) {
@@ -400,22 +406,15 @@ class Engine {
         const auto ldlt = sm.ldlt();
         const double nis = nu.dot(ldlt.solve(nu));
         const double logdet = ldlt.vectorD().array().log().sum();
-        if (score && std::isfinite(nis)) {
+        if (score && std::isfinite(nis) && std::isfinite(logdet)) {
           out.loglik += -0.5 * (3 * std::log(2 * kPi<double>) + logdet + std::min(nis, 3 * kCap));
           out.n_innov += 3;
         }
-        if (evaluate && std::isfinite(nis)) {
-          const double nll = 0.5 * (3 * std::log(2 * kPi<double>) + logdet + std::min(nis, 3 * kCap)) / 3;
-          out.ho_nis += std::min(nis, 3 * kCap) / 3;
-          out.ho_nll += nll;
-          ev_nll += nll;
-          ++out.ho_n;
-          if (nis < 3 * kCap) {
-            out.ho_sq += (nu[0] * nu[0] + nu[1] * nu[1]) / 2;
-            ++out.ho_nsq;
-          }
-          ev_nis += std::min(nis, 3 * kCap) / 3;
-          ++ev_dof;
+        if (evaluate) {
+          const bool ok = std::isfinite(nis) && std::isfinite(logdet);
+          const double nll = ok ? 0.5 * (3 * std::log(2 * kPi<double>) + logdet + std::min(nis, 3 * kCap)) / 3 : 0.0;
+          out.ho_beams.push_back({-(static_cast<long long>(ev.pose) + 1), held_scan, ok ? std::min(nis, 3 * kCap) / 3 : 0.0,
+                                  nll, (nu[0] * nu[0] + nu[1] * nu[1]) / 2, ok, ok && nis < 3 * kCap});
         }
         const PoseFix<S> fix{q.x, q.y, q.theta, q.sx, q.sy, q.stheta};
         if (evaluate) (void)fork->measureStep(nullptr, typename Est::AkfT::NoObserver{});
@@ -436,8 +435,9 @@ class Engine {
         fork.emplace(est);  // an anchor
         last_anchor = ev.t;
       }
-      // Truth comparison: held-out pose error (eval) and the trajectory (record).
-      if (spec.mode == Mode::kEval && held && fork) {
+      // Truth comparison: held-out pose error at each predicted measurement (eval), and the
+      // trajectory (record).
+      if (evaluate) {
         double tx, ty, tth, err = std::nan("");
         if (truth.at(ev.t, &tx, &ty, &tth)) {
           const auto& x = fork->akf().state();
@@ -447,7 +447,7 @@ class Engine {
           ++out.ho_nt;
           err = std::sqrt(e2);
         }
-        if (ev_dof > 0) out.ho_scans.push_back({ev.t, ev_nis / ev_dof, ev_nll / ev_dof, err});
+        out.ho_scans.push_back({ev.t, 0, 0, err});  // NIS and NLL: over the beams both runs predicted
       }
       if (spec.record) {
         const auto& x = est.akf().state();
@@ -887,9 +887,9 @@ bool diagnoseDrive(const Odolog& log, const DiagnoseOptions& opt, json* out, std
         ev_after[f] = en.run(ev);
       });
     }
+    runParallel(tasks, opt.threads);  // here: the tasks use evalSpec, local to this block
+    tasks.clear();
   }
-  runParallel(tasks, opt.threads);
-  tasks.clear();
 
   // Joint information (the joint run's posterior, all augmentable candidates free):
   // for a pair of candidates, condition on the others (a model with only that pair added
@@ -1159,17 +1159,56 @@ bool diagnoseDrive(const Odolog& log, const DiagnoseOptions& opt, json* out, std
   json heldout = nullptr;
   std::vector<HeldScan> held_before, held_after;  // every fold's predicted held-out scans
   if (!with_idx.empty()) {
-    RunOut before, after;  // the folds' sums
-    auto add = [](const RunOut& r, RunOut* sum, std::vector<HeldScan>* scans) {
-      sum->ho_nis += r.ho_nis;
-      sum->ho_nll += r.ho_nll;
-      sum->ho_sq += r.ho_sq;
-      sum->ho_pos_sq += r.ho_pos_sq;
-      sum->ho_head_sq += r.ho_head_sq;
-      sum->ho_n += r.ho_n;
-      sum->ho_nsq += r.ho_nsq;
-      sum->ho_nt += r.ho_nt;
-      scans->insert(scans->end(), r.ho_scans.begin(), r.ho_scans.end());
+    // Before and after over the beams both predicted (matched by key), fold by fold.
+    struct Sums {
+      double nis = 0, nll = 0, sq = 0, pos_sq = 0, head_sq = 0;
+      long n = 0, nsq = 0, nt = 0;
+    } before, after;
+    using PerScan = std::vector<std::array<double, 3>>;  // NIS sum, NLL sum, beams
+    auto take = [](const HeldBeam& h, Sums* sm, PerScan* per) {
+      sm->nis += h.nis;
+      sm->nll += h.nll;
+      ++sm->n;
+      if (h.inside) {
+        sm->sq += h.nu2;
+        ++sm->nsq;
+      }
+      auto& q = (*per)[static_cast<std::size_t>(h.scan)];
+      q[0] += h.nis;
+      q[1] += h.nll;
+      q[2] += 1;
+    };
+    auto scans = [](const RunOut& r, const PerScan& per, Sums* sm, std::vector<HeldScan>* dst) {
+      for (std::size_t k = 0; k < r.ho_scans.size(); ++k) {
+        if (per[k][2] == 0) continue;
+        dst->push_back({r.ho_scans[k].t, per[k][0] / per[k][2], per[k][1] / per[k][2], r.ho_scans[k].pose_err});
+      }
+      sm->pos_sq += r.ho_pos_sq;
+      sm->head_sq += r.ho_head_sq;
+      sm->nt += r.ho_nt;
+    };
+    auto common = [&](RunOut& rb, RunOut& ra) {
+      auto byKey = [](const HeldBeam& x, const HeldBeam& y) { return x.key < y.key; };
+      std::sort(rb.ho_beams.begin(), rb.ho_beams.end(), byKey);
+      std::sort(ra.ho_beams.begin(), ra.ho_beams.end(), byKey);
+      PerScan pb(rb.ho_scans.size(), {0, 0, 0}), pa(ra.ho_scans.size(), {0, 0, 0});
+      for (std::size_t i = 0, j = 0; i < rb.ho_beams.size() && j < ra.ho_beams.size();) {
+        const HeldBeam &x = rb.ho_beams[i], &y = ra.ho_beams[j];
+        if (x.key < y.key) {
+          ++i;
+        } else if (y.key < x.key) {
+          ++j;
+        } else {
+          if (x.ok && y.ok) {
+            take(x, &before, &pb);
+            take(y, &after, &pa);
+          }
+          ++i;
+          ++j;
+        }
+      }
+      scans(rb, pb, &before, &held_before);
+      scans(ra, pa, &after, &held_after);
     };
     // A fold whose fit lost the robot (dead-reckoning through a held-out block) has no
     // meaningful parameters: it is left out of both sides and reported.
@@ -1191,19 +1230,18 @@ bool diagnoseDrive(const Odolog& log, const DiagnoseOptions& opt, json* out, std
         failed.push_back(f);
         continue;
       }
-      add(ev_before[f], &before, &held_before);
-      add(ev_after[f], &after, &held_after);
+      common(ev_before[f], ev_after[f]);
     }
     auto byTime = [](const HeldScan& a, const HeldScan& b) { return a.t < b.t; };
     std::sort(held_before.begin(), held_before.end(), byTime);
     std::sort(held_after.begin(), held_after.end(), byTime);
-    auto metrics = [](const RunOut& r) {
+    auto metrics = [](const Sums& r) {
       json m;
-      m["nis_mean"] = r.ho_n > 0 ? json(r.ho_nis / double(r.ho_n)) : json(nullptr);
-      m["nll_mean"] = r.ho_n > 0 ? json(r.ho_nll / double(r.ho_n)) : json(nullptr);
-      m["innovation_rms_m"] = r.ho_nsq > 0 ? json(std::sqrt(r.ho_sq / double(r.ho_nsq))) : json(nullptr);
-      m["pose_rmse_m"] = r.ho_nt > 0 ? json(std::sqrt(r.ho_pos_sq / double(r.ho_nt))) : json(nullptr);
-      m["heading_rmse_rad"] = r.ho_nt > 0 ? json(std::sqrt(r.ho_head_sq / double(r.ho_nt))) : json(nullptr);
+      m["nis_mean"] = r.n > 0 ? json(r.nis / double(r.n)) : json(nullptr);
+      m["nll_mean"] = r.n > 0 ? json(r.nll / double(r.n)) : json(nullptr);
+      m["innovation_rms_m"] = r.nsq > 0 ? json(std::sqrt(r.sq / double(r.nsq))) : json(nullptr);
+      m["pose_rmse_m"] = r.nt > 0 ? json(std::sqrt(r.pos_sq / double(r.nt))) : json(nullptr);
+      m["heading_rmse_rad"] = r.nt > 0 ? json(std::sqrt(r.head_sq / double(r.nt))) : json(nullptr);
       return m;
     };
     // Paired by block: each block's mean after minus before, of the NIS and of the pose

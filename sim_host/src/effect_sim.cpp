@@ -275,6 +275,7 @@ bool simulateEffectDrive(const EffectSimConfig& cfg, std::string* text, std::str
     const Increment<double> noise{noisy.rho - inc.rho, noisy.theta - inc.theta, noisy.side - inc.side};
     ctx.x = truth.x;
     ctx.y = truth.y;
+    const double drive_rho = inc.rho;  // the travel totals count the increment before the effects
     forEachEffect([&](auto e) {
       using E = decltype(e);
       if constexpr (E::kKind == EffectKind::kMotion) {
@@ -289,7 +290,7 @@ bool simulateEffectDrive(const EffectSimConfig& cfg, std::string* text, std::str
       }
     });
     const double turn_noise = q_turn > 0 ? std::sqrt(q_turn * std::abs(inc.theta)) * n01(rng) : 0.0;
-    ctx.advance(inc.rho, sync ? da : 0.5 * (da + db));
+    ctx.advance(drive_rho, sync ? da : 0.5 * (da + db));
     inc.rho += noise.rho;
     inc.theta += noise.theta + turn_noise;
     inc.side += noise.side;

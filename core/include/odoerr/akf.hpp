@@ -139,7 +139,9 @@ class Akf {
     x_[PoseIdx::kY] = next.y;
     x_[PoseIdx::kTheta] = next.theta;
     if constexpr (Model::kHasEffects) {
-      ctx_.advance(inc.rho, Model::Drive::encoderTravel(u));
+      // the travel totals count the drive model's increment, before the effects (a
+      // backlash span counted in scaled travel lasted 25 % longer than its 5 cm)
+      ctx_.advance(model_.driveRho(u, x_), Model::Drive::encoderTravel(u));
       if (dt > S(0)) {  // a cycle of unknown duration keeps the last velocity
         const S inv_dt = S(1) / dt;
         vel_x_ = (next.x - ctx_.x) * inv_dt;

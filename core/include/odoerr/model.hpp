@@ -167,6 +167,12 @@ class Model {
     return inc;
   }
 
+  /// The drive model's noise-free translation for input u (before any effect): what the
+  /// travel totals of the motion context count (docs/effect-catalogue.md).
+  S driveRho(const Input& u, const StateVec& x) const {
+    return drive.increment(u, x.template segment<Drive::kParams>(kDriveOffset), NoiseVec::Zero()).rho;
+  }
+
   /// Extra variances of (rho, theta, side) from the noise effects for this increment.
   Eigen::Matrix<S, 3, 1> extraVariance(const Increment<S>& inc, const StateVec& x,
                                        const MotionContext<S>& ctx) const {

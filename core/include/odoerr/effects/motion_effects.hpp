@@ -132,7 +132,8 @@ struct WheelEccentricity : NominalZero<WheelEccentricity> {
   }
 };
 
-/// Lost motion after a reversal: while s_rev < 5 cm, rho *= 1 - b / 0.05.
+/// Lost motion after a reversal: the travel inside the first 5 cm after it is scaled by
+/// 1 - b / 0.05, so that exactly b is lost.
 struct Backlash : NominalZero<Backlash> {
   static constexpr EffectKind kKind = EffectKind::kMotion;
   static constexpr int kParams = 1;
