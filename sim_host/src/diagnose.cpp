@@ -372,7 +372,9 @@ class Engine {
             lost_since = -1;
           }
         } else {
-          lost_since = -1;  // not fusing (a held-out block or its gap) is not being lost
+          // Not fusing (a held-out block or its gap) leaves a lost stretch open: a fit that
+          // was lost before a block is still lost after it (fused stretches between one
+          // fold's blocks last only ~6 s, so resetting here hid a fit lost for 205 s).
           (void)est.measureStep(nullptr, typename Est::AkfT::NoObserver{});
         }
         if (spec.record && use && !evaluate) {
