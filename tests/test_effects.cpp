@@ -137,6 +137,25 @@ TEST(Effects, BacklashLosesExactlyBPerReversalWhateverTheCycleLength) {
   }
 }
 
+TEST(Effects, FilterOdometersCountTheDriveTravelBeforeTheEffects) {
+  // docs/effect-catalogue.md: s_abs and s_rev count the drive model's increment, not the
+  // one the effects changed. With backlash at 0.01 the two differ by 20 % in the span.
+  using MB = Model<DiffDrive<D>, Backlash>;
+  DiffDrive<D> drive;
+  drive.wheelbase = 0.5;
+  Akf<MB> akf{MB(drive)};
+  MB::StateVec x = MB::StateVec::Zero();
+  MB::setNominal(x);
+  x[MB::offsetOf<Backlash>()] = 0.01;
+  akf.init(x, MB::StateVec::Constant(1e-4).asDiagonal());
+  const Eigen::Matrix<D, 1, 1> k(1e-6);
+  for (int i = 0; i < 10; ++i) ASSERT_EQ(akf.predict({0.01, 0.01}, k), Status::kOk);   // 10 cm forwards
+  for (int i = 0; i < 3; ++i) ASSERT_EQ(akf.predict({-0.01, -0.01}, k), Status::kOk);  // 3 cm back: in the span
+  EXPECT_NEAR(akf.motionContext().s_abs, 0.13, 1e-12);
+  EXPECT_NEAR(akf.motionContext().s_rev, 0.03, 1e-12);
+  EXPECT_NEAR(akf.state()[0], 0.10 - 0.03 * (1 - 0.01 / 0.05), 1e-9);  // the pose did lose the travel
+}
+
 TEST(Effects, TurnNoiseAddsHeadingVarianceOnly) {
   const D q = 2e-4;
   const Eigen::Vector3d v = TurnNoise{}.variance(Increment<D>{0.01, -0.02, 0}, &q, testContext());

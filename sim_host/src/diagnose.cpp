@@ -4,7 +4,6 @@
 #include <atomic>
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -72,8 +71,14 @@ struct EffectInfo {
   std::vector<std::string> pnames;
 };
 
-/// One predicted (not fused) held-out measurement: its time, NIS and negative
-/// log-likelihood per degree of freedom, and the pose error against truth (NaN without).
+/// One predicted (not fused) held-out measurement in a run: its time and the predicting
+/// copy's pose error against truth (NaN without truth).
+struct HeldEvent {
+  double t, pose_err;
+};
+
+/// The same after the comparison: with the NIS and negative log-likelihood per degree of
+/// freedom over the beams that both runs predicted.
 struct HeldScan {
   double t, nis, nll, pose_err;
 };
@@ -83,7 +88,7 @@ struct HeldScan {
 /// its mean by leaving hard beams unpredicted.
 struct HeldBeam {
   long long key;  ///< scan * 64 + beam; a pose fix: -(index + 1)
-  int scan;       ///< its HeldScan in the run
+  int scan;       ///< its HeldEvent in the run
   double nis, nll, nu2;
   bool ok;        ///< predicted (a variance and a wall)
   bool inside;    ///< inside the gate (its innovation counts in the innovation RMS)
@@ -134,7 +139,7 @@ class Engine {
     KVec k;
     double ho_pos_sq = 0, ho_head_sq = 0;
     long ho_nt = 0;                  ///< kEval: truth samples at the predicted measurements
-    std::vector<HeldScan> ho_scans;  ///< kEval: every predicted held-out scan or fix
+    std::vector<HeldEvent> ho_scans;  ///< kEval: every predicted held-out scan or fix
     std::vector<HeldBeam> ho_beams;  ///< kEval: their beams
     std::vector<ScanRec> scans;
     std::vector<BeamRec> beams;
@@ -313,7 +318,7 @@ class Engine {
         evaluate = held && fork && (ev.scan >= 0 || ev.pose >= 0) && ev.t - last_anchor < opt_.reanchor_s;
       }
       Est& pe = evaluate ? *fork : est;  // the filter whose prediction is scored
-      const int held_scan = static_cast<int>(out.ho_scans.size());  // the HeldScan this event's beams belong to
+      const int held_scan = static_cast<int>(out.ho_scans.size());  // the HeldEvent this event's beams belong to
       const auto& akf = pe.akf();
       const StateVec xm = akf.state();
       if (ev.scan >= 0) {
@@ -449,7 +454,7 @@ class Engine {
           ++out.ho_nt;
           err = std::sqrt(e2);
         }
-        out.ho_scans.push_back({ev.t, 0, 0, err});  // NIS and NLL: over the beams both runs predicted
+        out.ho_scans.push_back({ev.t, err});
       }
       if (spec.record) {
         const auto& x = est.akf().state();
@@ -1246,21 +1251,17 @@ bool diagnoseDrive(const Odolog& log, const DiagnoseOptions& opt, json* out, std
       m["heading_rmse_rad"] = r.nt > 0 ? json(std::sqrt(r.head_sq / double(r.nt))) : json(nullptr);
       return m;
     };
-    // Paired by block: each block's mean after minus before, of the NIS and of the pose
+    // Paired by block: each block's mean after minus before, of the NIS, the NLL and the pose
     // error. A consistent change over the blocks (not one lucky block) is what an effect
     // that is really there gives: z is the mean change over its standard error.
     const auto& bl = en.blocks();
     auto paired = [&](double HeldScan::*field) {
       std::vector<double> sb(bl.size(), 0), sa(bl.size(), 0);
       std::vector<int> cb(bl.size(), 0), ca(bl.size(), 0);
-      auto blockOf = [&](double t) {
-        const auto it = std::upper_bound(bl.begin(), bl.end(), t, [](double v, const auto& x) { return v < x.first; });
-        return it == bl.begin() || t >= std::prev(it)->second ? -1 : static_cast<int>(it - bl.begin()) - 1;
-      };
       for (const HeldScan& h : held_before)
-        if (const int k = blockOf(h.t); k >= 0 && std::isfinite(h.*field)) sb[k] += h.*field, ++cb[k];
+        if (const int k = en.blockAt(h.t); k >= 0 && std::isfinite(h.*field)) sb[k] += h.*field, ++cb[k];
       for (const HeldScan& h : held_after)
-        if (const int k = blockOf(h.t); k >= 0 && std::isfinite(h.*field)) sa[k] += h.*field, ++ca[k];
+        if (const int k = en.blockAt(h.t); k >= 0 && std::isfinite(h.*field)) sa[k] += h.*field, ++ca[k];
       std::vector<double> d;
       int improved = 0;
       for (std::size_t k = 0; k < bl.size(); ++k) {
@@ -1290,6 +1291,12 @@ bool diagnoseDrive(const Odolog& log, const DiagnoseOptions& opt, json* out, std
                {"after", metrics(after)},
                {"paired", {{"nis", paired(&HeldScan::nis)}, {"nll", paired(&HeldScan::nll)},
                            {"pose_err_m", paired(&HeldScan::pose_err)}}}};
+    if (folds == 0) {
+      char note[160];
+      std::snprintf(note, sizeof note, "no held-out block: the drive is shorter than warm-up + gap + one block (%.1f s)",
+                    opt.warmup_s + opt.gap_s + opt.block_s);
+      heldout["note"] = note;
+    }
   }
 
   json walls = json::array();

@@ -152,12 +152,15 @@ class Model {
     return increment(u, x, nu, MotionContext<S>{}, d_state, d_noise);
   }
 
-  /// The same in a motion context (what the motion effects depend on).
+  /// The same in a motion context (what the motion effects depend on). drive_rho (may be
+  /// nullptr) receives the drive model's translation before any effect: what the travel
+  /// totals of the motion context count (docs/effect-catalogue.md).
   Increment<S> increment(const Input& u, const StateVec& x, const NoiseVec& nu,
                          const MotionContext<S>& ctx, Eigen::Matrix<S, 3, kStates>* d_state,
-                         Eigen::Matrix<S, 3, kNoise>* d_noise) const {
+                         Eigen::Matrix<S, 3, kNoise>* d_noise, S* drive_rho = nullptr) const {
     const auto p = x.template segment<Drive::kParams>(kDriveOffset);
     Increment<S> inc = drive.increment(u, p, nu);
+    if (drive_rho != nullptr) *drive_rho = inc.rho;
     if (d_state != nullptr) {
       d_state->setZero();
       d_state->template block<3, Drive::kParams>(0, kDriveOffset) = drive.dIncDParams(u, p);
@@ -165,12 +168,6 @@ class Model {
     }
     applyEffects(x, ctx, inc, d_state, d_noise, std::index_sequence_for<Effects...>{});
     return inc;
-  }
-
-  /// The drive model's noise-free translation for input u (before any effect): what the
-  /// travel totals of the motion context count (docs/effect-catalogue.md).
-  S driveRho(const Input& u, const StateVec& x) const {
-    return drive.increment(u, x.template segment<Drive::kParams>(kDriveOffset), NoiseVec::Zero()).rho;
   }
 
   /// Extra variances of (rho, theta, side) from the noise effects for this increment.
