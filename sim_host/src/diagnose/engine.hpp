@@ -1,0 +1,580 @@
+// diagnose, the filter runs over a log: the log as filter events (one per cm of encoder
+// travel, one per scan and pose fix at its own stamp), the held-out blocks and folds, and
+// Engine::run, which runs the estimator with the whole effect catalogue composed in over
+// those events in one of three modes (full, fit with a fold held out, evaluate a fold's
+// held-out blocks from anchors). Every other part of diagnose (ranking, held-out
+// comparison, excitation, discovery) is built from such runs.
+#pragma once
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <functional>
+#include <limits>
+#include <optional>
+#include <string>
+#include <tuple>
+#include <utility>
+#include <vector>
+
+#include <Eigen/Dense>
+
+#include "odoerr/effects/catalogue.hpp"
+#include "odoerr/estimator.hpp"
+#include "odoerr/fw/paper_setup.hpp"
+#include "odoerr/sim/diagnose.hpp"
+#include "odoerr/sim/stats.hpp"
+
+namespace odoerr::sim::diag {
+
+using effects::Catalogue;
+
+template <typename D, typename Tuple>
+struct ModelOf;
+template <typename D, typename... E>
+struct ModelOf<D, std::tuple<E...>> {
+  using type = Model<D, E...>;
+};
+
+constexpr double kCap = 25.0;     // NIS cap of one innovation in the likelihood (= the gate)
+constexpr double kHeld = 0.0;     // prior sigma of a parameter held at a value (exactly constant)
+/// The coarse grid of a noise effect's profile, in units of its reference size.
+constexpr double kNoiseGrid[4] = {0.0, 0.5, 2.0, 8.0};
+
+struct EffectInfo {
+  std::string name, description;
+  EffectKind kind;
+  int offset, n;
+  std::vector<double> prior, ref;
+  std::vector<std::string> pnames;
+};
+
+/// One predicted (not fused) held-out measurement in a run: its time and the predicting
+/// copy's pose error against truth (NaN without truth).
+struct HeldEvent {
+  double t, pose_err;
+};
+
+/// The same after the comparison: with the NIS and negative log-likelihood per degree of
+/// freedom over the beams that both runs predicted.
+struct HeldScan {
+  double t, nis, nll, pose_err;
+};
+
+/// One beam (or pose fix) of a predicted held-out measurement. Before and after are
+/// compared on the beams both predicted (matched by key), so that a model cannot improve
+/// its mean by leaving hard beams unpredicted.
+struct HeldBeam {
+  long long key;  ///< scan * 64 + beam; a pose fix: -(index + 1)
+  int scan;       ///< its HeldEvent in the run
+  double nis, nll, nu2;
+  bool ok;        ///< predicted (a variance and a wall)
+  bool inside;    ///< inside the gate (its innovation counts in the innovation RMS)
+};
+
+struct Event {
+  double t, dt, a, b;
+  int scan = -1, pose = -1;
+};
+
+enum class Mode { kFull, kFit, kEval };
+
+template <template <typename> class DriveT>
+class Engine {
+ public:
+  using S = double;
+  using Drive = DriveT<S>;
+  using M = typename ModelOf<Drive, Catalogue>::type;
+  using Est = Estimator<M, 16, 32, 64>;
+  using StateVec = typename M::StateVec;
+  using StateMat = typename M::StateMat;
+  using KVec = typename Est::OfT::KVec;
+  using KMat = typename Est::OfT::KMat;
+  using VecX = Eigen::VectorXd;
+  static constexpr bool kSync = std::is_same_v<Drive, SyncDrive<S>>;
+  static constexpr int kD = M::kDriveOffset;
+  static constexpr int kE = kD + Drive::kParams;  // first effect parameter
+
+  struct RunSpec {
+    VecX eff_val, eff_sig;  // size M::kEffectParams
+    bool hold_drive = false;
+    Eigen::Matrix<S, Drive::kParams, 1> drive_val = Drive::nominal();
+    bool of_free = false;
+    KVec k;
+    Mode mode = Mode::kFull;
+    int fold = 0;  ///< kFit / kEval: the cross-validation fold held out
+    bool record = false;
+    /// The beams the likelihood is scored on (scan * beams + beam); the baseline run
+    /// chooses them (make_scored) and every other run scores the same set.
+    const std::vector<std::uint8_t>* scored = nullptr;
+    std::vector<std::uint8_t>* make_scored = nullptr;
+  };
+  struct RunOut {
+    double loglik = 0;
+    long n_innov = 0;
+    StateVec x;
+    StateMat p;
+    KVec k;
+    double ho_pos_sq = 0, ho_head_sq = 0;
+    long ho_nt = 0;                  ///< kEval: truth samples at the predicted measurements
+    std::vector<HeldEvent> ho_scans;  ///< kEval: every predicted held-out scan or fix
+    std::vector<HeldBeam> ho_beams;  ///< kEval: their beams
+    std::vector<ScanRec> scans;
+    std::vector<BeamRec> beams;
+    std::vector<TrajRec> traj;
+    std::vector<std::array<double, 2>> obs;  // OF observable (z - m) / sqrt(s), per component
+    /// The longest time the filter fused scans with under a quarter of their beams used
+    /// (every other one gated or unpredictable): it had lost the robot.
+    double lost_s = 0;
+  };
+
+  Engine(const Odolog& log, const DiagnoseOptions& opt) : log_(log), opt_(opt) {}
+
+  bool prepare(std::string* error) {
+    if (log_.walls.size() > 16) {
+      *error = log_.path + ": the map has " + std::to_string(log_.walls.size()) + " walls; diagnose supports 16";
+      return false;
+    }
+    if (log_.has_laser && log_.laser.beams > 64) {
+      *error = log_.path + ": the laser has " + std::to_string(log_.laser.beams) + " beams; diagnose supports 64";
+      return false;
+    }
+    if (!log_.has_init) {
+      *error = log_.path + ": diagnose needs an 'init' record (the prior on the initial pose)";
+      return false;
+    }
+    if (log_.enc.size() < 2) {
+      *error = log_.path + ": diagnose needs at least two 'enc' records";
+      return false;
+    }
+    if (log_.scans.empty() && log_.poses.empty()) {
+      *error = log_.path + ": diagnose needs measurements: 'scan' or 'pose' records";
+      return false;
+    }
+    if constexpr (kSync) {
+      ticks_a_ = log_.param("ticks_per_m", 1);
+      ticks_b_ = log_.param("ticks_per_rad", 1);
+    } else {
+      drive_.wheelbase = log_.param("wheelbase_m", 0.5);
+      ticks_a_ = ticks_b_ = log_.param("ticks_per_rev", 1) / (2 * kPi<double> * log_.param("wheel_radius_m", 1));
+    }
+    for (const auto& w : log_.walls) (void)map_.add({w.x1, w.y1, w.x2, w.y2});
+    if (log_.has_laser) {
+      lc_ = {log_.laser.beams, log_.laser.angle_min, log_.laser.angle_inc, log_.laser.range_max,
+             log_.laser.sigma, log_.laser.mount_x, log_.laser.mount_y, log_.laser.mount_yaw};
+    } else {
+      lc_.beams = 0;
+    }
+    if (!laser_.init(lc_)) {
+      *error = log_.path + ": the laser set-up is not usable";
+      return false;
+    }
+    buildEffects();
+    buildEvents();
+    t0_ = events_.front().t;
+    t1_ = events_.back().t;
+    // Held-out blocks: after the warm-up, the drive cut into short blocks (the fit
+    // dead-reckons through a block and its gaps, so a block must be short enough to
+    // relocalise after); fold f holds out blocks f, f + folds, ...
+    blocks_start_ = t0_ + opt_.warmup_s + opt_.gap_s;
+    const double span = t1_ - blocks_start_;
+    const int nb = opt_.block_s > 0 && span > 0 ? static_cast<int>(span / opt_.block_s) : 0;
+    for (int b = 0; b < nb; ++b)
+      blocks_.push_back({blocks_start_ + b * opt_.block_s, blocks_start_ + (b + 1) * opt_.block_s});
+    folds_ = std::max(0, std::min(opt_.folds, nb));
+    return true;
+  }
+
+  const std::vector<EffectInfo>& effects() const { return effects_; }
+
+  /// The model: the drive and every catalogue effect, configured from the log.
+  M makeModel() const {
+    M m(drive_);
+    auto& ecc = std::get<effects::WheelEccentricity>(m.effects);
+    ecc.wheel_radius = log_.param("wheel_radius_m", 0.05);
+    auto& reg = std::get<effects::RegionScale>(m.effects);
+    if (!log_.walls.empty()) {
+      reg.x_min = reg.y_min = std::numeric_limits<double>::infinity();
+      reg.x_max = reg.y_max = -std::numeric_limits<double>::infinity();
+      for (const auto& w : log_.walls) {
+        reg.x_min = std::min({reg.x_min, w.x1, w.x2});
+        reg.x_max = std::max({reg.x_max, w.x1, w.x2});
+        reg.y_min = std::min({reg.y_min, w.y1, w.y2});
+        reg.y_max = std::max({reg.y_max, w.y1, w.y2});
+      }
+    } else {  // no map: the box around the initial pose
+      reg.x_min = log_.init.x - 5;
+      reg.x_max = log_.init.x + 5;
+      reg.y_min = log_.init.y - 5;
+      reg.y_max = log_.init.y + 5;
+    }
+    return m;
+  }
+
+  /// A spec with every effect held at nominal.
+  RunSpec nominalSpec(const KVec& k, bool of_free) const {
+    RunSpec s;
+    s.eff_val = VecX::Zero(M::kEffectParams);
+    s.eff_sig = VecX::Constant(M::kEffectParams, kHeld);
+    s.k = k;
+    s.of_free = of_free;
+    return s;
+  }
+  /// Frees effect e (prior sigma) in a spec.
+  void freeEffect(RunSpec* s, int e) const {
+    const EffectInfo& fi = effects_[e];
+    for (int i = 0; i < fi.n; ++i) s->eff_sig[fi.offset - kE + i] = fi.prior[i];
+  }
+
+  KVec initialK() const {
+    KVec k0;
+    if constexpr (kSync) {
+      k0 << opt_.k0_rho, opt_.k0_theta;
+    } else {
+      k0 << opt_.k0_w;
+    }
+    return k0;
+  }
+
+  RunOut run(const RunSpec& spec) const {
+    fw::FilterSetup setup;
+    Est est(makeModel(), map_, laser_, {S(setup.akf.max_incidence_rad), S(setup.akf.gate_nis)}, setup.of);
+    StateVec x0 = StateVec::Zero();
+    x0[0] = log_.init.x;
+    x0[1] = log_.init.y;
+    x0[2] = log_.init.theta;
+    M::setNominal(x0);
+    StateVec sig = StateVec::Zero();
+    sig[0] = log_.init.sx;
+    sig[1] = log_.init.sy;
+    sig[2] = log_.init.stheta;
+    for (int i = 0; i < Drive::kParams; ++i) {
+      sig[kD + i] = spec.hold_drive ? kHeld : setup.sigma_scale;
+      if (spec.hold_drive) x0[kD + i] = spec.drive_val[i];
+    }
+    if constexpr (kSync) {
+      if (!spec.hold_drive) sig[kD + 1] = setup.sigma_e_theta;
+    }
+    for (int i = 0; i < M::kEffectParams; ++i) {
+      x0[kE + i] = spec.eff_val[i];
+      sig[kE + i] = spec.eff_sig[i];
+    }
+    const KMat pk0 = (spec.k * setup.nonsys_rel_sigma).cwiseAbs2().asDiagonal();
+    est.init(x0, sig.cwiseAbs2().asDiagonal(), spec.k, pk0);
+    est.freezeNonSystematic(!spec.of_free);
+
+    RunOut out;
+    std::vector<double> ranges(std::max(1, lc_.beams));
+    TruthCursor truth{log_.truth};
+    double dist = 0;
+    double last_anchor = -1e300;
+    std::optional<Est> fork;  // kEval: the copy that predicts a held-out block from its anchor
+    double lost_since = -1;   // time of the first scan of the current lost stretch (-1: tracking)
+    const double c_m = lc_.mount_x, s_m = lc_.mount_y;
+    for (const Event& ev : events_) {
+      const typename Drive::Input u{ev.a, ev.b};
+      dist += Drive::pathLength(u);
+      if (est.predictStep(u, ev.dt) != Status::kOk) continue;
+      const bool held = spec.mode != Mode::kFull && inHeldout(ev.t, spec.fold);
+      bool use = true;      // fuse this event's measurement
+      bool score = spec.mode == Mode::kFull;
+      bool evaluate = false;  // held-out evaluation (predict, do not fuse)
+      if (spec.mode == Mode::kFit) {
+        use = !held && !nearHeldout(ev.t, spec.fold);
+        score = use;
+      }
+      // Evaluation: the main filter fuses everything; at an anchor (a held-out block's first
+      // measurement, then one per reanchor_s) a copy of it is taken, and the copy predicts
+      // the block's other measurements from the data up to its anchor only. A bad
+      // prediction never feeds back into the tracking.
+      if (spec.mode == Mode::kEval) {
+        if (!held) {
+          fork.reset();
+        } else if (fork && fork->predictStep(u, ev.dt) != Status::kOk) {
+          fork.reset();
+        }
+        evaluate = held && fork && (ev.scan >= 0 || ev.pose >= 0) && ev.t - last_anchor < opt_.reanchor_s;
+      }
+      Est& pe = evaluate ? *fork : est;  // the filter whose prediction is scored
+      const int held_scan = static_cast<int>(out.ho_scans.size());  // the HeldEvent this event's beams belong to
+      const auto& akf = pe.akf();
+      const StateVec xm = akf.state();
+      if (ev.scan >= 0) {
+        const OdologScan& sc = log_.scans[static_cast<std::size_t>(ev.scan)];
+        for (int i = 0; i < lc_.beams; ++i) ranges[i] = sc.ranges[static_cast<std::size_t>(i)];
+        ScanRec rec{};
+        const double c = std::cos(xm[2]), sn = std::sin(xm[2]);
+        const double lx = xm[0] + c * c_m - sn * s_m, ly = xm[1] + sn * c_m + c * s_m;
+        const std::size_t key0 = static_cast<std::size_t>(ev.scan) * static_cast<std::size_t>(lc_.beams);
+        auto observe = [&](const typename Est::AkfT::BeamRecord& r) {
+          const std::size_t key = key0 + static_cast<std::size_t>(r.beam);
+          if (!(r.variance > 0)) {
+            // a scored beam this run cannot predict costs what an outlier costs
+            if (score && spec.scored != nullptr && (*spec.scored)[key]) {
+              out.loglik += -0.5 * (std::log(2 * kPi<double> * lc_.sigma * lc_.sigma) + kCap);
+              ++out.n_innov;
+            }
+            if (evaluate) out.ho_beams.push_back({static_cast<long long>(key), held_scan, 0, 0, 0, false, false});
+            return;
+          }
+          const double nu = r.measured - r.predicted;
+          const double nis = nu * nu / r.variance;
+          if (score && spec.make_scored != nullptr) {
+            (*spec.make_scored)[key] = nis < kCap && !nearCorner(xm, r.beam, r.predicted);
+          }
+          if (score && (spec.scored == nullptr || (*spec.scored)[key]) &&
+              (spec.make_scored == nullptr || (*spec.make_scored)[key])) {
+            out.loglik += -0.5 * (std::log(2 * kPi<double> * r.variance) + std::min(nis, kCap));
+            ++out.n_innov;
+          }
+          if (evaluate) {
+            const double nll = 0.5 * (std::log(2 * kPi<double> * r.variance) + std::min(nis, kCap));
+            // the innovation error counts beams inside the gate (an outlier's size says nothing)
+            out.ho_beams.push_back(
+                {static_cast<long long>(key), held_scan, std::min(nis, kCap), nll, nu * nu, true, nis < kCap});
+          }
+          if (spec.record) {
+            rec.nis_sum += std::min(nis, kCap);
+            rec.sum_norm += nu / std::sqrt(r.variance);
+            ++rec.dof;
+            const double a = xm[2] + lc_.mount_yaw + lc_.angle_min + r.beam * lc_.angle_inc;
+            out.beams.push_back({ev.t, r.beam, r.status, lx + r.measured * std::cos(a), ly + r.measured * std::sin(a),
+                                 nu, r.variance});
+          }
+        };
+        if (evaluate) {
+          fork->evaluateScan(ranges.data(), observe);
+          (void)fork->measureStep(nullptr, typename Est::AkfT::NoObserver{});
+          (void)est.measureStep(ranges.data(), typename Est::AkfT::NoObserver{});
+        } else if (use) {
+          const auto res = est.measureStep(ranges.data(), observe);
+          if (4 * res.scan.used < lc_.beams) {
+            if (lost_since < 0) lost_since = ev.t;
+            out.lost_s = std::max(out.lost_s, ev.t - lost_since);
+          } else {
+            lost_since = -1;
+          }
+        } else {
+          // Not fusing (a held-out block or its gap) leaves a lost stretch open: a fit that
+          // was lost before a block is still lost after it (fused stretches between one
+          // fold's blocks last only ~6 s, so resetting here hid a fit lost for 205 s).
+          (void)est.measureStep(nullptr, typename Est::AkfT::NoObserver{});
+        }
+        if (spec.record && use && !evaluate) {
+          const StateVec& xp = akf.state();
+          const auto& ctx = akf.motionContext();
+          rec.t = ev.t;
+          rec.dist = dist;
+          rec.x = xm[0];
+          rec.y = xm[1];
+          rec.th = xm[2];
+          rec.x1 = xp[0];
+          rec.y1 = xp[1];
+          rec.th1 = xp[2];
+          rec.v = std::hypot(akf.velocityX(), akf.velocityY()) * (ctx.last_sign < 0 ? -1.0 : 1.0);
+          rec.w = akf.turnRate();
+          rec.s_rev = ctx.s_rev;
+          rec.s_signed = ctx.s_enc;
+          double tx, ty, tth;
+          if (truth.at(ev.t, &tx, &ty, &tth)) {
+            const Eigen::Vector3d e(xp[0] - tx, xp[1] - ty, wrapAngle(xp[2] - tth));
+            const Eigen::Matrix3d pp = akf.covariance().template topLeftCorner<3, 3>();
+            rec.nees = e.dot(pp.ldlt().solve(e));
+          }
+          out.scans.push_back(rec);
+        }
+      } else if (ev.pose >= 0) {
+        const OdologPose& q = log_.poses[static_cast<std::size_t>(ev.pose)];
+        const Eigen::Vector3d nu(q.x - xm[0], q.y - xm[1], wrapAngle(q.theta - xm[2]));
+        const Eigen::Matrix3d sm = akf.covariance().template topLeftCorner<3, 3>() +
+                                   Eigen::Vector3d(q.sx * q.sx, q.sy * q.sy, q.stheta * q.stheta).asDiagonal().toDenseMatrix();
+        const auto ldlt = sm.ldlt();
+        const double nis = nu.dot(ldlt.solve(nu));
+        const double logdet = ldlt.vectorD().array().log().sum();
+        if (score && std::isfinite(nis) && std::isfinite(logdet)) {
+          out.loglik += -0.5 * (3 * std::log(2 * kPi<double>) + logdet + std::min(nis, 3 * kCap));
+          out.n_innov += 3;
+        }
+        if (evaluate) {
+          const bool ok = std::isfinite(nis) && std::isfinite(logdet);
+          const double nll = ok ? 0.5 * (3 * std::log(2 * kPi<double>) + logdet + std::min(nis, 3 * kCap)) / 3 : 0.0;
+          out.ho_beams.push_back({-(static_cast<long long>(ev.pose) + 1), held_scan, ok ? std::min(nis, 3 * kCap) / 3 : 0.0,
+                                  nll, (nu[0] * nu[0] + nu[1] * nu[1]) / 2, ok, ok && nis < 3 * kCap});
+        }
+        const PoseFix<S> fix{q.x, q.y, q.theta, q.sx, q.sy, q.stheta};
+        if (evaluate) (void)fork->measureStep(nullptr, typename Est::AkfT::NoObserver{});
+        (void)est.measureStep(nullptr, typename Est::AkfT::NoObserver{}, use ? &fix : nullptr);
+      } else {
+        if (fork) (void)fork->measureStep(nullptr, typename Est::AkfT::NoObserver{});
+        (void)est.measureStep(nullptr, typename Est::AkfT::NoObserver{});
+      }
+      if (spec.of_free && est.of().counters().updates > out.obs.size()) {
+        const auto& of = est.of();
+        std::array<double, 2> o{std::nan(""), std::nan("")};
+        for (int i = 0; i < of.lastObservation().size() && i < 2; ++i) {
+          o[i] = (of.lastObservation()[i] - of.lastPredicted()[i]) / std::sqrt(of.lastVariance()[i]);
+        }
+        out.obs.push_back(o);
+      }
+      if (spec.mode == Mode::kEval && held && (ev.scan >= 0 || ev.pose >= 0) && !evaluate) {
+        fork.emplace(est);  // an anchor
+        last_anchor = ev.t;
+      }
+      // Truth comparison: held-out pose error at each predicted measurement (eval), and the
+      // trajectory (record).
+      if (evaluate) {
+        double tx, ty, tth, err = std::nan("");
+        if (truth.at(ev.t, &tx, &ty, &tth)) {
+          const auto& x = fork->akf().state();
+          const double e2 = (x[0] - tx) * (x[0] - tx) + (x[1] - ty) * (x[1] - ty);
+          out.ho_pos_sq += e2;
+          out.ho_head_sq += wrapAngle(x[2] - tth) * wrapAngle(x[2] - tth);
+          ++out.ho_nt;
+          err = std::sqrt(e2);
+        }
+        out.ho_scans.push_back({ev.t, err});
+      }
+      if (spec.record) {
+        const auto& x = est.akf().state();
+        TrajRec tr{ev.t, x[0], x[1], x[2], 0, 0, 0, false};
+        tr.truth = truth.at(ev.t, &tr.tx, &tr.ty, &tr.tth);
+        out.traj.push_back(tr);
+      }
+    }
+    out.x = est.akf().state();
+    out.p = est.akf().covariance();
+    out.k = est.of().estimate();
+    return out;
+  }
+
+  /// A beam whose predicted hit lies within 5 cm of a wall's end: its prediction can jump
+  /// to another wall with a tiny change of pose, so it says little about a smooth effect.
+  bool nearCorner(const StateVec& x, int beam, double range) const {
+    const double c = std::cos(x[2]), sn = std::sin(x[2]);
+    const double lx = x[0] + c * lc_.mount_x - sn * lc_.mount_y, ly = x[1] + sn * lc_.mount_x + c * lc_.mount_y;
+    const double a = x[2] + lc_.mount_yaw + lc_.angle_min + beam * lc_.angle_inc;
+    const double hx = lx + range * std::cos(a), hy = ly + range * std::sin(a);
+    for (const auto& w : log_.walls) {
+      if (std::hypot(hx - w.x1, hy - w.y1) < 0.05 || std::hypot(hx - w.x2, hy - w.y2) < 0.05) return true;
+    }
+    return false;
+  }
+  std::size_t scoredSize() const { return log_.scans.size() * static_cast<std::size_t>(std::max(0, lc_.beams)); }
+
+  /// The block that holds time t (-1: none).
+  int blockAt(double t) const {
+    if (blocks_.empty() || t < blocks_start_) return -1;
+    const int b = static_cast<int>((t - blocks_start_) / opt_.block_s);
+    return b < static_cast<int>(blocks_.size()) ? b : -1;
+  }
+  bool heldBlock(int b, int fold) const { return b >= 0 && folds_ > 0 && b % folds_ == fold; }
+  bool inHeldout(double t, int fold) const { return heldBlock(blockAt(t), fold); }
+  /// Within gap_s of a block held out in this fold (the fit does not use it either).
+  bool nearHeldout(double t, int fold) const {
+    if (blocks_.empty()) return false;
+    const double lo = std::floor((t - opt_.gap_s - blocks_start_) / opt_.block_s);
+    const double hi = std::floor((t + opt_.gap_s - blocks_start_) / opt_.block_s);
+    const int last = static_cast<int>(blocks_.size()) - 1;
+    for (int b = static_cast<int>(std::max(0.0, lo)); b <= std::min(double(last), hi); ++b)
+      if (heldBlock(b, fold)) return true;
+    return false;
+  }
+  const std::vector<std::pair<double, double>>& blocks() const { return blocks_; }
+  int folds() const { return folds_; }
+  double duration() const { return t1_ - t0_; }
+  const Drive& drive() const { return drive_; }
+
+ private:
+  template <std::size_t... I>
+  void buildEffectsImpl(std::index_sequence<I...>) {
+    (addEffect<std::tuple_element_t<I, Catalogue>>(), ...);
+  }
+  template <typename E>
+  void addEffect() {
+    EffectInfo fi;
+    fi.name = E::kName;
+    fi.description = E::kDescription;
+    fi.kind = E::kKind;
+    fi.offset = M::template offsetOf<E>();
+    fi.n = E::kParams;
+    for (int i = 0; i < E::kParams; ++i) {
+      fi.prior.push_back(effects::priorSigma<E>(i));
+      fi.ref.push_back(effects::referenceSize<E>(i));
+      fi.pnames.push_back(E::kParamNames[i]);
+    }
+    effects_.push_back(fi);
+  }
+  void buildEffects() { buildEffectsImpl(std::make_index_sequence<std::tuple_size_v<Catalogue>>{}); }
+
+  /// The log as filter events: one per cm of encoder travel, one per scan and pose fix at
+  /// its own stamp (encoder counts interpolated to it), as `odoerr replay` does.
+  void buildEvents() {
+    const auto& e = log_.enc;
+    EncCursor enc(e);
+    auto countsAt = [&](double t, double* a, double* b) {
+      const CountsAt c = enc.at(t);
+      *a = c.a;
+      *b = c.b;
+    };
+    double fa = double(e.front().a), fb = double(e.front().b), ft = e.front().t;
+    auto push = [&](double t, double a, double b, int scan, int pose) {
+      Event ev{t, t - ft, (a - fa) / ticks_a_, (b - fb) / ticks_b_, scan, pose};
+      events_.push_back(ev);
+      fa = a;
+      fb = b;
+      ft = t;
+    };
+    std::size_t ie = 0, is = 0, ip = 0;
+    const double inf = std::numeric_limits<double>::infinity();
+    while (ie < e.size() || is < log_.scans.size() || ip < log_.poses.size()) {
+      const double te = ie < e.size() ? e[ie].t : inf;
+      const double ts = is < log_.scans.size() ? log_.scans[is].t : inf;
+      const double tp = ip < log_.poses.size() ? log_.poses[ip].t : inf;
+      if (te <= ts && te <= tp) {
+        const OdologEnc& r = e[ie++];
+        const typename Drive::Input u{(double(r.a) - fa) / ticks_a_, (double(r.b) - fb) / ticks_b_};
+        if (Drive::pathLength(u) >= opt_.cycle_m) push(r.t, double(r.a), double(r.b), -1, -1);
+      } else if (ts <= tp) {
+        const double t = log_.scans[is].t;
+        if (t >= ft && lc_.beams > 0) {
+          double a, b;
+          countsAt(t, &a, &b);
+          push(t, a, b, static_cast<int>(is), -1);
+        }
+        ++is;
+      } else {
+        const double t = log_.poses[ip].t;
+        if (t >= ft) {
+          double a, b;
+          countsAt(t, &a, &b);
+          push(t, a, b, -1, static_cast<int>(ip));
+        }
+        ++ip;
+      }
+    }
+    if (events_.empty()) events_.push_back({ft, 0, 0, 0, -1, -1});
+  }
+
+  const Odolog& log_;
+  DiagnoseOptions opt_;
+  Drive drive_{};
+  double ticks_a_ = 1, ticks_b_ = 1;
+  typename Est::MapT map_;
+  LaserConfig<S> lc_{};
+  typename Est::LaserT laser_;
+  std::vector<EffectInfo> effects_;
+  std::vector<Event> events_;
+  double t0_ = 0, t1_ = 0;
+  std::vector<std::pair<double, double>> blocks_;  ///< held-out blocks; block b in fold b % folds_
+  double blocks_start_ = 0;
+  int folds_ = 0;
+};
+
+/// Runs tasks on `threads` workers.
+void runParallel(std::vector<std::function<void()>>& tasks, int threads);
+
+extern template class Engine<SyncDrive>;
+extern template class Engine<DiffDrive>;
+
+}  // namespace odoerr::sim::diag

@@ -1,0 +1,30 @@
+// diagnose, the held-out comparison (--with), cross-validated over time: in each fold, fit
+// on the kept data (OF free), then evaluate with everything fitted held, predicting the
+// fold's held-out blocks from anchors. Before (the model as it is) and after (with the
+// effects), compared over the beams both predicted, in means and paired by block.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "engine.hpp"
+
+namespace odoerr::sim::diag {
+
+struct HeldoutResult {
+  nlohmann::ordered_json json;               ///< the "heldout" object of the contract
+  std::vector<HeldScan> before, after;       ///< every used fold's predicted held-out scans, by time
+};
+
+/// Compares the model with the effects `before` (catalogue indices) against the model
+/// with `after` added, on held-out data. `names` is what the JSON lists under "with".
+template <template <typename> class DriveT>
+HeldoutResult compareHeldout(const Engine<DriveT>& en, const std::vector<int>& before, const std::vector<int>& after,
+                             const std::vector<std::string>& names, const DiagnoseOptions& opt);
+
+/// heldout_before.csv and heldout_after.csv in dir (false with *error if not writable).
+bool writeHeldoutCsv(const std::string& dir, const HeldoutResult& r, std::string* error);
+
+}  // namespace odoerr::sim::diag
