@@ -1,0 +1,70 @@
+// diagnose, sparse regression of residuals on candidate features: forward selection
+// cross-validated over time blocks, with cluster-robust standard errors, and a
+// likelihood-ratio scan for one abrupt change of the coefficients. Generic (a design
+// matrix with named columns); discovery.cpp builds the designs from the filter's
+// residuals. docs/diagnostics.md ("Discovery") states the rules.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Dense>
+
+namespace odoerr::sim::diag {
+
+/// A regression problem. Columns [0, n_nuisance) are always in the model (what the model
+/// already estimates, e.g. the wheel scales); the rest are candidates.
+struct Design {
+  Eigen::MatrixXd x;          ///< rows x columns
+  Eigen::VectorXd y;          ///< one response per row
+  Eigen::VectorXd t;          ///< each row's time (s), for the change-point scan
+  std::vector<int> fold;      ///< cross-validation fold of each row (0..folds-1)
+  std::vector<int> cluster;   ///< cluster of each row (rows whose errors may correlate), 0..
+  int folds = 4;
+  int n_nuisance = 0;
+};
+
+struct SelectOptions {
+  int max_terms = 3;          ///< candidates selected at most
+  double z_min = 4.5;         ///< |coef / cluster-robust sigma| a candidate needs
+  double min_gain = 0.01;     ///< relative fall of the cross-validated SSE a candidate needs
+};
+
+struct Selection {
+  std::vector<int> terms;        ///< selected candidate columns, in the order chosen
+  std::vector<double> coef;      ///< per selected term
+  std::vector<double> sigma;     ///< cluster-robust
+  std::vector<double> nuisance;  ///< the nuisance coefficients of the final fit
+  double sse_cv_nuisance = 0;    ///< cross-validated SSE with the nuisance columns only
+  double sse_cv = 0;             ///< with the selected terms too
+  double sse_total = 0;          ///< sum of y^2 (the residual before any fit)
+  int rows = 0;
+  /// The share of the cross-validated misfit (nuisance-only) that the terms explain.
+  double explained() const { return sse_cv_nuisance > 0 ? 1.0 - sse_cv / sse_cv_nuisance : 0.0; }
+};
+
+/// Forward selection: at each step the candidate that lowers the cross-validated SSE most,
+/// kept when its cluster-robust z and its gain pass the thresholds.
+Selection forwardSelect(const Design& d, const SelectOptions& opt);
+
+/// The model with the nuisance columns and exactly `terms`: its coefficients, sigmas and
+/// cross-validated SSE (no selection).
+Selection fitTerms(const Design& d, const std::vector<int>& terms);
+
+/// Cross-validated SSE of the model with the nuisance columns and `terms`.
+double crossValidatedSse(const Design& d, const std::vector<int>& terms);
+
+struct ChangePoint {
+  bool found = false;
+  double t = 0, t_lo = 0, t_hi = 0;  ///< the most likely time and its interval
+  double stat = 0, threshold = 0;    ///< sup statistic and its critical value
+  std::vector<double> before, after; ///< the nuisance coefficients on each side
+};
+
+/// Likelihood-ratio scan for one change, at time tau, of the nuisance coefficients
+/// (Andrews' sup-Wald, 15 % trimmed at each end, critical value at the 1 % level; the
+/// residual variance inflated by the residuals' autocorrelation). The interval is the set
+/// of tau whose statistic is within `drop` of the maximum.
+ChangePoint scanChange(const Design& d, double drop = 7.7);
+
+}  // namespace odoerr::sim::diag
