@@ -275,6 +275,7 @@ bool simulateEffectDrive(const EffectSimConfig& cfg, std::string* text, std::str
     const Increment<double> noise{noisy.rho - inc.rho, noisy.theta - inc.theta, noisy.side - inc.side};
     ctx.x = truth.x;
     ctx.y = truth.y;
+    ctx.setHeading(truth.theta);  // the heading at the cycle's start (feature effects)
     const double drive_rho = inc.rho;  // the travel totals count the increment before the effects
     forEachEffect([&](auto e) {
       using E = decltype(e);

@@ -107,6 +107,11 @@ class Akf {
       ctx_.dt = dt;
       ctx_.x = x_[PoseIdx::kX];
       ctx_.y = x_[PoseIdx::kY];
+      if constexpr (Model::kUsesHeading) {
+        ctx_.heading = x_[PoseIdx::kTheta];
+        ctx_.cos_heading = c;
+        ctx_.sin_heading = sn;
+      }
     } else {
       (void)dt;
     }
@@ -360,7 +365,7 @@ class Akf {
       (*h) << drdx, drdy, drdx * dlx + drdy * dly + drda;
       if (geo != nullptr) {
         *geo = BeamContext<S>{hit.range, drdx, drdy, (*h)(2), drda, c, sn, hit.n_dot_u, hit.wall,
-                              S(0), S(0), S(0)};
+                              S(0), S(0), S(0), cfg.angle_min + S(i) * cfg.angle_inc};
       }
     }
     return Status::kOk;

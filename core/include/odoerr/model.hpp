@@ -55,7 +55,20 @@ struct MotionContext {
   S s_enc = S(0);  ///< cumulative signed travel the encoders report (nominal constants): the wheel angle
   S x = S(0);
   S y = S(0);
+  /// Heading at the start of the cycle, and its cos and sin. The filter fills them only
+  /// for models with an effect that declares `static constexpr bool kUsesHeading = true`
+  /// (Model::kUsesHeading); otherwise they stay at heading 0.
+  S heading = S(0);
+  S cos_heading = S(1);
+  S sin_heading = S(0);
   int last_sign = 0;                               ///< sign of the last non-zero rho
+
+  /// Sets the heading and its cos, sin (host code, simulators).
+  void setHeading(S h) {
+    heading = h;
+    cos_heading = std::cos(h);
+    sin_heading = std::sin(h);
+  }
 
   /// Advances the odometers past a cycle whose translation was rho (encoders: enc).
   void advance(S rho, S enc) {
@@ -101,7 +114,16 @@ struct BeamContext {
   S n_dot_u;        ///< wall normal . ray direction
   int wall;         ///< index of the wall hit
   S vx, vy, w;      ///< robot velocity (world frame, m/s) and turn rate (rad/s)
+  S alpha;          ///< the beam's angle relative to the laser's x axis (angle_min + i angle_inc)
 };
+
+namespace model_detail {
+/// Whether an effect reads the heading of the motion context (kUsesHeading, default false).
+template <typename E, typename = void>
+struct UsesHeading : std::false_type {};
+template <typename E>
+struct UsesHeading<E, std::void_t<decltype(E::kUsesHeading)>> : std::bool_constant<E::kUsesHeading> {};
+}  // namespace model_detail
 
 template <typename DriveT, typename... Effects>
 class Model {
@@ -117,6 +139,9 @@ class Model {
   static constexpr bool kHasEffects = sizeof...(Effects) > 0;
   static constexpr bool kHasMeasurementEffects = (false || ... || (Effects::kKind == EffectKind::kMeasurement));
   static constexpr bool kHasNoiseEffects = (false || ... || (Effects::kKind == EffectKind::kNoise));
+  /// Some effect reads MotionContext::heading / cos_heading / sin_heading: only then does
+  /// the filter fill them (a model without such an effect pays nothing per cycle).
+  static constexpr bool kUsesHeading = (false || ... || model_detail::UsesHeading<Effects>::value);
   static constexpr int kParams = Drive::kParams + kEffectParams;
   static constexpr int kStates = PoseIdx::kDim + kParams;
   static constexpr int kNoise = Drive::kNoise;

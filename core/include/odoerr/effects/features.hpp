@@ -1,0 +1,413 @@
+// odoerr core: the feature library of residual discovery, the ONE source of truth for it.
+//
+// `odoerr diagnose` regresses the filter's odometry and range residuals on these candidate
+// features; FeatureMotion / FeatureRange (effects/feature_effects.hpp) put a finding back
+// into the model as `correction = sum_i c_i * feature_i`, with the c_i in the augmented
+// state. The host's discovery code and the effects both compute the features here, so a
+// coefficient regressed on the host means the same thing once the filter estimates it.
+//
+// docs/effect-catalogue.md ("Feature effects: the discovery library") lists every feature
+// and target with its formula and units.
+//
+// Everything is templated on the scalar, allocation-free and exception-free.
+#pragma once
+
+#include <cstdint>
+#include <cstring>
+
+#include "odoerr/map.hpp"
+#include "odoerr/model.hpp"
+
+namespace odoerr::effects {
+
+// ---------------------------------------------------------------------------------------
+// Motion features: functions of one cycle's increment (rho, th) and its context.
+//
+//   rho, th  the drive model's noise-free increment of the cycle (what every motion effect
+//            sees: the encoders through the systematic parameters and earlier effects)
+//   dt       the cycle's duration (s); rate features are 0 when dt <= 0 (unknown)
+//   d        the wheelbase (diff drive; a configured constant, not the estimated delta_d)
+//   R, L     the wheels' travel: R = rho + th d/2, L = rho - th d/2
+//   h, x, y  the robot's heading and position at the START of the cycle (MotionContext)
+//   xc, yc   the map centre (configured)
+//   s_abs    the cumulative |rho| at the start of the cycle (MotionContext)
+// ---------------------------------------------------------------------------------------
+enum class MotionFeature : std::uint8_t {
+  kNone,          ///< none: 0 (an unused slot)
+  kDs,            ///< ds = rho (m)
+  kAbsDs,         ///< abs_ds = |rho| (m)
+  kDth,           ///< dth = th (rad)
+  kAbsDth,        ///< abs_dth = |th| (rad)
+  kDsR,           ///< ds_R = R (m)
+  kDsL,           ///< ds_L = L (m)
+  kDsRSpeed,      ///< ds_R_speed = R |R| / dt (m^2/s)
+  kDsLSpeed,      ///< ds_L_speed = L |L| / dt (m^2/s)
+  kVW,            ///< v_w = rho th / dt (m rad/s)
+  kV2,            ///< v2 = rho |rho| / dt (m^2/s)
+  kW2,            ///< w2 = th |th| / dt (rad^2/s)
+  kCosHeadingDs,  ///< cos_heading_ds = cos(h) |rho| (m)
+  kSinHeadingDs,  ///< sin_heading_ds = sin(h) |rho| (m)
+  kXDs,           ///< x_ds = (x - xc) |rho| (m^2)
+  kYDs,           ///< y_ds = (y - yc) |rho| (m^2)
+  kSDs,           ///< s_ds = s_abs |rho| (m^2)
+  kDt,            ///< dt = dt (s)
+  kCount
+};
+constexpr int kMotionFeatureCount = static_cast<int>(MotionFeature::kCount);
+
+/// Where a motion feature's correction c * f goes.
+enum class MotionTarget : std::uint8_t {
+  kAlong,    ///< along: rho += c f
+  kCross,    ///< cross: side += c f
+  kHeading,  ///< heading: th += c f
+  kWorldX,   ///< world_x: a world-frame displacement (c f, 0): rho += c f cos h, side -= c f sin h
+  kWorldY,   ///< world_y: a world-frame displacement (0, c f): rho += c f sin h, side += c f cos h
+  kWheelR,   ///< wheel_R: the right wheel's travel += c f: rho += c f / 2, th += c f / d
+  kWheelL,   ///< wheel_L: the left wheel's travel += c f: rho += c f / 2, th -= c f / d
+  kCount
+};
+constexpr int kMotionTargetCount = static_cast<int>(MotionTarget::kCount);
+
+// ---------------------------------------------------------------------------------------
+// Beam features: functions of one beam's predicted range and geometry.
+//
+//   r      the predicted range (m)
+//   inc    the SIGNED incidence angle at the wall hit (rad, in (-pi/2, pi/2), 0 = normal):
+//          the angle from the wall normal that points away from the laser to the ray
+//          direction, counter-clockwise positive. With it, a ray rotated by +dalpha
+//          (counter-clockwise) changes its range by r tan(inc) dalpha.
+//   alpha  the beam's angle relative to the laser's x axis (rad; angle_min + i angle_inc,
+//          without the mount yaw)
+//   v, w   the robot's signed forward speed (m/s) and turn rate (rad/s) over the last cycle
+//
+// Not in the library: the time since the log's start. The filter's measurement hook does
+// not know it (the AKF sees cycle durations, which are 0 when unknown, never the scans'
+// stamps), and a feature the filter cannot compute as the host does would break the
+// contract that both compute the same numbers.
+// ---------------------------------------------------------------------------------------
+enum class BeamFeature : std::uint8_t {
+  kNone,            ///< none: 0 (an unused slot)
+  kOne,             ///< one = 1 (a range bias)
+  kRange,           ///< range = r (m; a range scale)
+  kAbsInc,          ///< abs_inc = |inc| (rad)
+  kInc2,            ///< inc2 = inc^2 (rad^2)
+  kInvCosInc,       ///< inv_cos_inc = 1 / cos(inc) - 1 (1)
+  kAlpha,           ///< alpha (rad)
+  kAlpha2,          ///< alpha2 = alpha^2 (rad^2)
+  kAngleSens,       ///< angle_sens = dr / dalpha = r tan(inc) (m/rad)
+  kAlphaAngleSens,  ///< alpha_angle_sens = alpha * angle_sens (m): a beam-angle scale error
+  kV,               ///< v (m/s)
+  kW,               ///< w (rad/s)
+  kWAngleSens,      ///< w_angle_sens = w * angle_sens (m/s): a latency in rotation
+  kCount
+};
+constexpr int kBeamFeatureCount = static_cast<int>(BeamFeature::kCount);
+
+namespace feature_detail {
+constexpr const char* kMotionFeatureNames[kMotionFeatureCount] = {
+    "none",   "ds",   "abs_ds", "dth",           "abs_dth",        "ds_R", "ds_L", "ds_R_speed", "ds_L_speed",
+    "v_w",    "v2",   "w2",     "cos_heading_ds", "sin_heading_ds", "x_ds", "y_ds", "s_ds",       "dt"};
+constexpr const char* kMotionFeatureUnits[kMotionFeatureCount] = {
+    "1", "m", "m", "rad", "rad", "m", "m", "m^2/s", "m^2/s", "m*rad/s", "m^2/s", "rad^2/s", "m", "m", "m^2", "m^2",
+    "m^2", "s"};
+constexpr const char* kMotionTargetNames[kMotionTargetCount] = {"along",   "cross",   "heading", "world_x",
+                                                                "world_y", "wheel_R", "wheel_L"};
+constexpr const char* kMotionTargetUnits[kMotionTargetCount] = {"m", "m", "rad", "m", "m", "m", "m"};
+constexpr const char* kBeamFeatureNames[kBeamFeatureCount] = {
+    "none",       "one",   "range",      "abs_inc", "inc2", "inv_cos_inc", "alpha",
+    "alpha2",     "angle_sens", "alpha_angle_sens", "v", "w", "w_angle_sens"};
+constexpr const char* kBeamFeatureUnits[kBeamFeatureCount] = {"1",     "1",   "m", "rad", "rad^2", "1", "rad",
+                                                              "rad^2", "m/rad", "m", "m/s", "rad/s", "m/s"};
+
+template <typename Enum, int Count>
+inline bool parse(const char* s, const char* const (&names)[Count], Enum* out) {
+  if (s == nullptr) return false;
+  for (int i = 0; i < Count; ++i) {
+    if (std::strcmp(s, names[i]) == 0) {
+      if (out != nullptr) *out = static_cast<Enum>(i);
+      return true;
+    }
+  }
+  return false;
+}
+template <int Count>
+constexpr const char* name(int i, const char* const (&names)[Count]) {
+  return i >= 0 && i < Count ? names[i] : "?";
+}
+template <typename S>
+constexpr S sgn(S v) {
+  return v > S(0) ? S(1) : (v < S(0) ? S(-1) : S(0));
+}
+}  // namespace feature_detail
+
+/// The name of a feature or target ("ds_R_speed"; "?" when out of range).
+constexpr const char* motionFeatureName(MotionFeature f) {
+  return feature_detail::name(static_cast<int>(f), feature_detail::kMotionFeatureNames);
+}
+constexpr const char* motionTargetName(MotionTarget t) {
+  return feature_detail::name(static_cast<int>(t), feature_detail::kMotionTargetNames);
+}
+constexpr const char* beamFeatureName(BeamFeature f) {
+  return feature_detail::name(static_cast<int>(f), feature_detail::kBeamFeatureNames);
+}
+/// The unit of a feature's value or of a target's quantity (a coefficient's unit is the
+/// target's unit over the feature's; a beam coefficient's is m over the feature's).
+constexpr const char* motionFeatureUnit(MotionFeature f) {
+  return feature_detail::name(static_cast<int>(f), feature_detail::kMotionFeatureUnits);
+}
+constexpr const char* motionTargetUnit(MotionTarget t) {
+  return feature_detail::name(static_cast<int>(t), feature_detail::kMotionTargetUnits);
+}
+constexpr const char* beamFeatureUnit(BeamFeature f) {
+  return feature_detail::name(static_cast<int>(f), feature_detail::kBeamFeatureUnits);
+}
+
+/// Parses a name as printed by the *Name functions (exact, case-sensitive). Returns false
+/// (and leaves *out alone) for an unknown name or nullptr.
+inline bool parseMotionFeature(const char* s, MotionFeature* out) {
+  return feature_detail::parse(s, feature_detail::kMotionFeatureNames, out);
+}
+inline bool parseMotionTarget(const char* s, MotionTarget* out) {
+  return feature_detail::parse(s, feature_detail::kMotionTargetNames, out);
+}
+inline bool parseBeamFeature(const char* s, BeamFeature* out) {
+  return feature_detail::parse(s, feature_detail::kBeamFeatureNames, out);
+}
+
+/// A motion feature's value and its partial derivatives w.r.t. the increment's rho and th
+/// (at the context held fixed). d|u|/du is taken as sign(u), 0 at u = 0.
+template <typename S>
+struct FeatureValue {
+  S f = S(0);
+  S d_rho = S(0);
+  S d_th = S(0);
+};
+
+/// Motion feature f of a cycle with increment (rho, th) in context ctx (dt, heading,
+/// position, s_abs at the cycle's start); `wheelbase` is d, (xc, yc) the map centre.
+template <typename S>
+inline FeatureValue<S> motionFeature(MotionFeature f, S rho, S th, const MotionContext<S>& ctx, S wheelbase,
+                                     S xc, S yc) {
+  using feature_detail::sgn;
+  const S half_d = S(0.5) * wheelbase;
+  const S inv_dt = ctx.dt > S(0) ? S(1) / ctx.dt : S(0);  // rate features vanish when dt is unknown
+  const S a_rho = std::abs(rho), s_rho = sgn(rho);
+  FeatureValue<S> v;
+  switch (f) {
+    case MotionFeature::kDs:
+      v = {rho, S(1), S(0)};
+      break;
+    case MotionFeature::kAbsDs:
+      v = {a_rho, s_rho, S(0)};
+      break;
+    case MotionFeature::kDth:
+      v = {th, S(0), S(1)};
+      break;
+    case MotionFeature::kAbsDth:
+      v = {std::abs(th), S(0), sgn(th)};
+      break;
+    case MotionFeature::kDsR:
+      v = {rho + th * half_d, S(1), half_d};
+      break;
+    case MotionFeature::kDsL:
+      v = {rho - th * half_d, S(1), -half_d};
+      break;
+    case MotionFeature::kDsRSpeed: {
+      const S r = rho + th * half_d, g = S(2) * std::abs(r) * inv_dt;  // d(R|R|)/dR = 2|R|
+      v = {r * std::abs(r) * inv_dt, g, g * half_d};
+      break;
+    }
+    case MotionFeature::kDsLSpeed: {
+      const S l = rho - th * half_d, g = S(2) * std::abs(l) * inv_dt;
+      v = {l * std::abs(l) * inv_dt, g, -g * half_d};
+      break;
+    }
+    case MotionFeature::kVW:
+      v = {rho * th * inv_dt, th * inv_dt, rho * inv_dt};
+      break;
+    case MotionFeature::kV2:
+      v = {rho * a_rho * inv_dt, S(2) * a_rho * inv_dt, S(0)};
+      break;
+    case MotionFeature::kW2:
+      v = {th * std::abs(th) * inv_dt, S(0), S(2) * std::abs(th) * inv_dt};
+      break;
+    case MotionFeature::kCosHeadingDs:
+      v = {ctx.cos_heading * a_rho, ctx.cos_heading * s_rho, S(0)};
+      break;
+    case MotionFeature::kSinHeadingDs:
+      v = {ctx.sin_heading * a_rho, ctx.sin_heading * s_rho, S(0)};
+      break;
+    case MotionFeature::kXDs:
+      v = {(ctx.x - xc) * a_rho, (ctx.x - xc) * s_rho, S(0)};
+      break;
+    case MotionFeature::kYDs:
+      v = {(ctx.y - yc) * a_rho, (ctx.y - yc) * s_rho, S(0)};
+      break;
+    case MotionFeature::kSDs:
+      v = {ctx.s_abs * a_rho, ctx.s_abs * s_rho, S(0)};
+      break;
+    case MotionFeature::kDt:
+      v = {ctx.dt > S(0) ? ctx.dt : S(0), S(0), S(0)};
+      break;
+    case MotionFeature::kNone:
+    case MotionFeature::kCount:
+      break;
+  }
+  return v;
+}
+
+/// The change of the increment (rho, th, side) per unit of c * f for target t: the
+/// correction is inc += c f * dir. World targets rotate at the heading of the cycle's start
+/// (ctx.cos_heading, ctx.sin_heading); wheel targets need wheelbase > 0 (else their heading
+/// part is 0).
+template <typename S>
+inline void motionTargetDirection(MotionTarget t, const MotionContext<S>& ctx, S wheelbase, S dir[3]) {
+  dir[0] = S(0);
+  dir[1] = S(0);
+  dir[2] = S(0);
+  const S inv_d = wheelbase > S(0) ? S(1) / wheelbase : S(0);
+  switch (t) {
+    case MotionTarget::kAlong:
+      dir[0] = S(1);
+      break;
+    case MotionTarget::kCross:
+      dir[2] = S(1);
+      break;
+    case MotionTarget::kHeading:
+      dir[1] = S(1);
+      break;
+    case MotionTarget::kWorldX:
+      dir[0] = ctx.cos_heading;
+      dir[2] = -ctx.sin_heading;
+      break;
+    case MotionTarget::kWorldY:
+      dir[0] = ctx.sin_heading;
+      dir[2] = ctx.cos_heading;
+      break;
+    case MotionTarget::kWheelR:
+      dir[0] = S(0.5);
+      dir[1] = inv_d;
+      break;
+    case MotionTarget::kWheelL:
+      dir[0] = S(0.5);
+      dir[1] = -inv_d;
+      break;
+    case MotionTarget::kCount:
+      break;
+  }
+}
+
+/// What the beam features of one beam are computed from (see BeamFeature).
+template <typename S>
+struct BeamFeatureInputs {
+  S range = S(0);    ///< predicted range r (m)
+  S inc = S(0);      ///< signed incidence angle (rad), in (-pi/2, pi/2)
+  S cos_inc = S(1);  ///< cos(inc) = |n . u| (> 0)
+  S tan_inc = S(0);  ///< tan(inc)
+  S alpha = S(0);    ///< beam angle relative to the laser's x axis (rad)
+  S v = S(0);        ///< robot's signed forward speed (m/s)
+  S w = S(0);        ///< robot's turn rate (rad/s)
+};
+
+/// The value of beam feature f.
+template <typename S>
+inline S beamFeature(BeamFeature f, const BeamFeatureInputs<S>& b) {
+  switch (f) {
+    case BeamFeature::kOne:
+      return S(1);
+    case BeamFeature::kRange:
+      return b.range;
+    case BeamFeature::kAbsInc:
+      return std::abs(b.inc);
+    case BeamFeature::kInc2:
+      return b.inc * b.inc;
+    case BeamFeature::kInvCosInc:
+      return S(1) / b.cos_inc - S(1);
+    case BeamFeature::kAlpha:
+      return b.alpha;
+    case BeamFeature::kAlpha2:
+      return b.alpha * b.alpha;
+    case BeamFeature::kAngleSens:
+      return b.range * b.tan_inc;
+    case BeamFeature::kAlphaAngleSens:
+      return b.alpha * b.range * b.tan_inc;
+    case BeamFeature::kV:
+      return b.v;
+    case BeamFeature::kW:
+      return b.w;
+    case BeamFeature::kWAngleSens:
+      return b.w * b.range * b.tan_inc;
+    case BeamFeature::kNone:
+    case BeamFeature::kCount:
+      break;
+  }
+  return S(0);
+}
+
+/// The beam feature inputs of a ray from (px, py) in direction (ux, uy) (need not be unit)
+/// onto the line of `wall` (the segment the ray hits; its ends are not checked). alpha is
+/// the beam's angle in the laser frame, v and w the robot's speed and turn rate. Returns
+/// false when the ray is parallel to the wall or the wall is not in front of it.
+template <typename S>
+inline bool beamFeatureInputs(S px, S py, S ux, S uy, const Segment<S>& wall, S alpha, S v, S w,
+                              BeamFeatureInputs<S>* out) {
+  const S un = std::sqrt(ux * ux + uy * uy);
+  const S ex = wall.x2 - wall.x1, ey = wall.y2 - wall.y1;
+  const S len = std::sqrt(ex * ex + ey * ey);
+  if (!(un > S(0)) || !(len > S(0))) return false;
+  ux /= un;
+  uy /= un;
+  const S nx = -ey / len, ny = ex / len;  // the map's unit normal (SegmentMap::add)
+  const S n_dot_u = nx * ux + ny * uy;
+  if (n_dot_u == S(0)) return false;
+  const S r = (nx * (wall.x1 - px) + ny * (wall.y1 - py)) / n_dot_u;
+  if (!(r > S(0))) return false;
+  const S n_cross_u = nx * uy - ny * ux;
+  // with n' = sign(n.u) n (facing away from the laser): cos inc = n'.u, sin inc = n' x u
+  const S cos_inc = std::abs(n_dot_u);
+  const S sin_inc = n_dot_u > S(0) ? n_cross_u : -n_cross_u;
+  out->range = r;
+  out->cos_inc = cos_inc;
+  out->tan_inc = sin_inc / cos_inc;
+  out->inc = std::atan2(sin_inc, cos_inc);
+  out->alpha = alpha;
+  out->v = v;
+  out->w = w;
+  return true;
+}
+
+/// The beam feature inputs from what the filter's measurement hook sees (the ray as cast).
+/// drda = r tan(inc) (the derivation in docs/effect-catalogue.md), so tan(inc) = drda / r.
+template <typename S>
+inline BeamFeatureInputs<S> beamFeatureInputs(const BeamContext<S>& b) {
+  BeamFeatureInputs<S> in;
+  in.range = b.range;
+  in.cos_inc = std::abs(b.n_dot_u);
+  in.tan_inc = b.range > S(0) ? b.drda / b.range : S(0);
+  in.inc = std::atan(in.tan_inc);
+  in.alpha = b.alpha;
+  in.v = b.c * b.vx + b.sn * b.vy;  // the velocity's forward component: signed speed
+  in.w = b.w;
+  return in;
+}
+
+/// The beam feature inputs of beam i of `laser` from a robot pose (x, y, theta), as the
+/// filter casts it (mount offset and yaw included): the host's discovery code computes the
+/// features from a posterior pose with this. v, w: the robot's speed and turn rate. Returns
+/// false when the beam hits no wall (or grazes it exactly).
+template <typename S, int MaxWalls, int MaxBeams>
+inline bool beamFeatureInputs(const SegmentMap<S, MaxWalls>& map, const LaserGeometry<S, MaxBeams>& laser, S x, S y,
+                              S theta, int i, S v, S w, BeamFeatureInputs<S>* out) {
+  if (i < 0 || i >= laser.beams()) return false;
+  const LaserConfig<S>& cfg = laser.config();
+  const S c = std::cos(theta), sn = std::sin(theta);
+  const S lx = x + c * cfg.mount_x - sn * cfg.mount_y;
+  const S ly = y + sn * cfg.mount_x + c * cfg.mount_y;
+  const S ux = c * laser.dirC(i) - sn * laser.dirS(i);
+  const S uy = sn * laser.dirC(i) + c * laser.dirS(i);
+  const RayHit<S> hit = map.castDir(lx, ly, ux, uy);
+  if (!hit.hit) return false;
+  return beamFeatureInputs(lx, ly, ux, uy, map.wall(hit.wall), cfg.angle_min + S(i) * cfg.angle_inc, v, w, out);
+}
+
+}  // namespace odoerr::effects
