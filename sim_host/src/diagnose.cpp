@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include "diagnose/discovery.hpp"
 #include "diagnose/engine.hpp"
 #include "diagnose/excitation.hpp"
 #include "diagnose/heldout.hpp"
@@ -18,6 +19,8 @@ namespace {
 
 using json = nlohmann::ordered_json;
 using namespace diag;
+
+constexpr double kMinExplained = 0.2;  // a named effect must explain this share of the misfit discovery finds
 
 template <template <typename> class DriveT>
 bool diagnoseDrive(const Odolog& log, const DiagnoseOptions& opt, json* out, std::string* error) {
@@ -66,6 +69,7 @@ bool diagnoseDrive(const Odolog& log, const DiagnoseOptions& opt, json* out, std
   //    It also fixes the set of beams every run is scored on.
   RunSpec base_spec = en.nominalSpec(k_hat, false);
   base_spec.record = true;
+  base_spec.residuals = true;
   std::vector<std::uint8_t> scored(en.scoredSize(), 0);
   base_spec.make_scored = &scored;
   const RunOut base = en.run(base_spec);
@@ -76,7 +80,55 @@ bool diagnoseDrive(const Odolog& log, const DiagnoseOptions& opt, json* out, std
   ref0.scored = &scored;
   Ranking<DriveT> rank(en, opt.threads);
   rank.run(ref0, l0, n_innov);
-  const json ranking = rank.toJson(joint);
+
+  // 4. Discovery: the residuals of the model as it is, regressed on the feature library;
+  //    then with each named effect in the model, and with all of them: how much of the
+  //    misfit each explains (an effect that explains little of it is not named: a wrong
+  //    kind absorbs a part of a misfit, never most of it), and what is left.
+  Discovery<DriveT> disc(en, opt);
+  Scales scales;
+  const Residuals res_base = disc.analyse(base, &scales);
+  const double misfit = structuredMisfit(res_base.motion_sel) + structuredMisfit(res_base.beam_sel);
+  const std::vector<int> named0 = rank.named();
+  std::vector<json> explains(named0.size());
+  {
+    std::vector<RunOut> runs(named0.size());
+    std::vector<std::function<void()>> tasks;
+    for (std::size_t i = 0; i < named0.size(); ++i)
+      tasks.push_back([&, i] {
+        RunSpec s = rank.heldAt({named0[i]});
+        s.scored = nullptr;
+        s.residuals = true;
+        runs[i] = en.run(s);
+      });
+    runParallel(tasks, opt.threads);
+    for (std::size_t i = 0; i < named0.size(); ++i) {
+      explains[i] = explainedBy(res_base, disc.analyse(runs[i], &scales));
+      const json& tot = explains[i]["total"];
+      if (misfit > 0 && tot.is_number() && tot.template get<double>() < kMinExplained) {
+        char why[200];
+        std::snprintf(why, sizeof why,
+                      "it explains %.0f %% of the misfit the residuals show (motion and beams together); "
+                      "an effect of the right form explains most of it",
+                      100 * tot.template get<double>());
+        rank.unname(named0[i], why);
+      }
+    }
+  }
+  const std::vector<int> named = rank.named();
+  Residuals res_final;
+  if (!named.empty()) {
+    RunSpec s = rank.heldAt(named);
+    s.scored = nullptr;
+    s.residuals = true;
+    res_final = disc.analyse(en.run(s), &scales);
+  }
+  const json unexplained = unexplainedJson(res_base, named.empty() ? res_base : res_final, !named.empty());
+  const json change_points = disc.changePoints(res_base);
+  json ranking = rank.toJson(joint);
+  for (json& row : ranking)
+    for (std::size_t i = 0; i < named0.size(); ++i)
+      if (row["effect"] == fx[named0[i]].name) row["explains"] = explains[i];
   const json excitation = excitationReport(en, base_free, rank.candidates());
 
   // Statistics of the baseline (K held) and the verdict.
@@ -111,9 +163,10 @@ bool diagnoseDrive(const Odolog& log, const DiagnoseOptions& opt, json* out, std
       tests["nees_params"] = nullptr;
     }
   }
-  const bool consistent = !rank.anySignificant() && st.consistent;
+  const bool consistent = !rank.anySignificant() && st.consistent && !unexplained["significant"].template get<bool>() &&
+                          change_points.empty();
 
-  // 4. Held-out comparison (--with).
+  // 5. Held-out comparison (--with).
   HeldoutResult held;
   json heldout = nullptr;
   if (!with_idx.empty()) {
@@ -131,6 +184,8 @@ bool diagnoseDrive(const Odolog& log, const DiagnoseOptions& opt, json* out, std
   j["tests"] = tests;
   j["ranking"] = ranking;
   j["heldout"] = heldout;
+  j["unexplained"] = unexplained;
+  j["change_points"] = change_points;
   j["excitation"] = excitation;
   j["bins"] = st.bins;
   j["cusum"] = st.cusum;

@@ -73,6 +73,20 @@ struct HeldBeam {
   bool inside;    ///< inside the gate (its innovation counts in the innovation RMS)
 };
 
+/// The filter's pose after fusing a measurement (a scan or a pose fix), for the residuals
+/// of discovery: the event it belongs to, the posterior pose, speed and turn rate.
+struct PostPose {
+  int event;
+  double t, x, y, th, v, w;
+};
+
+/// A beam predicted at the posterior of its scan (the filter's residual after the fusion).
+struct PostBeam {
+  int post;   ///< its PostPose
+  int beam;
+  double nu;  ///< measured - predicted at the posterior (measurement effects included)
+};
+
 struct Event {
   double t, dt, a, b;
   int scan = -1, pose = -1;
@@ -105,6 +119,7 @@ class Engine {
     Mode mode = Mode::kFull;
     int fold = 0;  ///< kFit / kEval: the cross-validation fold held out
     bool record = false;
+    bool residuals = false;  ///< record the posterior poses and beam residuals (discovery)
     /// The beams the likelihood is scored on (scan * beams + beam); the baseline run
     /// chooses them (make_scored) and every other run scores the same set.
     const std::vector<std::uint8_t>* scored = nullptr;
@@ -123,6 +138,8 @@ class Engine {
     std::vector<ScanRec> scans;
     std::vector<BeamRec> beams;
     std::vector<TrajRec> traj;
+    std::vector<PostPose> post;       ///< residuals: the posterior at every fused measurement
+    std::vector<PostBeam> post_beams;  ///< residuals: the beams of the fused scans at their posterior
     std::vector<std::array<double, 2>> obs;  // OF observable (z - m) / sqrt(s), per component
     /// The longest time the filter fused scans with under a quarter of their beams used
     /// (every other one gated or unpredictable): it had lost the robot.
@@ -361,6 +378,7 @@ class Engine {
           // fold's blocks last only ~6 s, so resetting here hid a fit lost for 205 s).
           (void)est.measureStep(nullptr, typename Est::AkfT::NoObserver{});
         }
+        if (spec.residuals && use && !evaluate) recordPosterior(est, ev, &out, ranges.data());
         if (spec.record && use && !evaluate) {
           const StateVec& xp = akf.state();
           const auto& ctx = akf.motionContext();
@@ -405,6 +423,7 @@ class Engine {
         const PoseFix<S> fix{q.x, q.y, q.theta, q.sx, q.sy, q.stheta};
         if (evaluate) (void)fork->measureStep(nullptr, typename Est::AkfT::NoObserver{});
         (void)est.measureStep(nullptr, typename Est::AkfT::NoObserver{}, use ? &fix : nullptr);
+        if (spec.residuals && use && !evaluate) recordPosterior(est, ev, &out, nullptr);
       } else {
         if (fork) (void)fork->measureStep(nullptr, typename Est::AkfT::NoObserver{});
         (void)est.measureStep(nullptr, typename Est::AkfT::NoObserver{});
@@ -448,6 +467,22 @@ class Engine {
     return out;
   }
 
+  /// Discovery's residuals after a fused measurement: the posterior pose, and for a scan
+  /// every beam predicted again at the posterior (measurement effects included).
+  void recordPosterior(const Est& est, const Event& ev, RunOut* out, const double* ranges) const {
+    const auto& akf = est.akf();
+    const StateVec& xp = akf.state();
+    const auto& ctx = akf.motionContext();
+    const int post = static_cast<int>(out->post.size());
+    out->post.push_back({static_cast<int>(&ev - events_.data()), ev.t, xp[0], xp[1], xp[2],
+                         std::hypot(akf.velocityX(), akf.velocityY()) * (ctx.last_sign < 0 ? -1.0 : 1.0),
+                         akf.turnRate()});
+    if (ranges == nullptr) return;
+    est.evaluateScan(ranges, [&](const typename Est::AkfT::BeamRecord& r) {
+      if (r.variance > 0) out->post_beams.push_back({post, r.beam, r.measured - r.predicted});
+    });
+  }
+
   /// A beam whose predicted hit lies within 5 cm of a wall's end: its prediction can jump
   /// to another wall with a tiny change of pose, so it says little about a smooth effect.
   bool nearCorner(const StateVec& x, int beam, double range) const {
@@ -481,6 +516,10 @@ class Engine {
     return false;
   }
   const std::vector<std::pair<double, double>>& blocks() const { return blocks_; }
+  const std::vector<Event>& events() const { return events_; }
+  const typename Est::MapT& map() const { return map_; }
+  const typename Est::LaserT& laser() const { return laser_; }
+  const Odolog& log() const { return log_; }
   int folds() const { return folds_; }
   double duration() const { return t1_ - t0_; }
   const Drive& drive() const { return drive_; }

@@ -198,19 +198,10 @@ bool Ranking<DriveT>::test(const Candidate& c, RankRow* r) const {
 // model at its estimate (a noise effect with its K multiplier too).
 template <template <typename> class DriveT>
 std::vector<RankRow> Ranking<DriveT>::conditional(int given, const std::vector<int>& others) const {
-  const auto& fx = en_.effects();
-  const int ne = static_cast<int>(fx.size());
-  constexpr int kE = En::kE;
-  const RunSpec& ref0 = ref0_;
+  const int ne = static_cast<int>(en_.effects().size());
   const std::vector<Candidate>& cand = cand_;
   Tasks tasks;
-  RunSpec ref1 = ref0;
-  for (int i = 0; i < fx[given].n; ++i)
-    if (cand[given].informed[i]) ref1.eff_val[fx[given].offset - kE + i] = cand[given].est[i];
-  if (fx[given].kind == EffectKind::kNoise) {
-    ref1.eff_val[fx[given].offset - kE] = cand[given].q_best;
-    ref1.k = ref0.k * cand[given].k_mult;
-  }
+  const RunSpec ref1 = heldAt({given});
   std::vector<Candidate> c2(ne);
   std::vector<RunOut> aug2(ne);
   for (int e : others) augmentTasks(ref1, cand[given].ll, e, &c2[e], &aug2[e], &tasks);
@@ -221,10 +212,26 @@ std::vector<RankRow> Ranking<DriveT>::conditional(int given, const std::vector<i
   tasks.clear();
   std::vector<RankRow> res(ne);
   for (int e : others) {
-    res[e] = RankRow{e, 0, 0, 0, 1, 0, false, false};
+    res[e] = RankRow{e, 0, 0, 0, 1, 0, false, false, -1, 1, {}};
     res[e].significant = test(c2[e], &res[e]);
   }
   return res;
+}
+
+template <template <typename> class DriveT>
+typename Ranking<DriveT>::RunSpec Ranking<DriveT>::heldAt(const std::vector<int>& given) const {
+  const auto& fx = en_.effects();
+  constexpr int kE = En::kE;
+  RunSpec ref1 = ref0_;
+  for (int g : given) {
+    for (int i = 0; i < fx[g].n; ++i)
+      if (cand_[g].informed[i]) ref1.eff_val[fx[g].offset - kE + i] = cand_[g].est[i];
+    if (fx[g].kind == EffectKind::kNoise) {
+      ref1.eff_val[fx[g].offset - kE] = cand_[g].q_best;
+      ref1.k = ref1.k * cand_[g].k_mult;
+    }
+  }
+  return ref1;
 }
 
 template <template <typename> class DriveT>
@@ -247,7 +254,7 @@ void Ranking<DriveT>::run(const RunSpec& ref, double l_ref, long n_innov) {
   std::vector<RankRow>& rows = rows_;
   rows.clear();
   for (int e = 0; e < ne; ++e) {
-    RankRow r{e, 0, 0, 0, 1, 0, false, false};
+    RankRow r{e, 0, 0, 0, 1, 0, false, false, -1, 1, {}};
     r.significant = test(cand[e], &r);
     for (int i = 0; i < fx[e].n; ++i)
       r.detectable = r.detectable || (cand[e].informed[i] && cand[e].sig[i] < fx[e].ref[i] / 3);
@@ -297,6 +304,23 @@ bool Ranking<DriveT>::anySignificant() const {
   bool any = false;
   for (const RankRow& r : rows_) any = any || r.significant;
   return any;
+}
+
+template <template <typename> class DriveT>
+std::vector<int> Ranking<DriveT>::named() const {
+  std::vector<int> v;
+  for (const RankRow& r : rows_)
+    if (r.significant) v.push_back(r.e);
+  return v;
+}
+
+template <template <typename> class DriveT>
+void Ranking<DriveT>::unname(int e, const std::string& why) {
+  for (RankRow& r : rows_)
+    if (r.e == e) {
+      r.significant = false;
+      r.unnamed = why;
+    }
 }
 
 template <template <typename> class DriveT>
@@ -382,6 +406,7 @@ json Ranking<DriveT>::toJson(const RunOut& joint) const {
                                 : f.kind == EffectKind::kNoise ? "noise"
                                                                : "measurement"},
                        {"description", f.description}});
+    if (!r.unnamed.empty()) ranking.back()["not_named_because"] = r.unnamed;
     if (f.kind == EffectKind::kNoise) {
       json prof = json::array();
       for (const auto& pt : c.profile) prof.push_back({{"q", pt[0]}, {"loglik", pt[1]}, {"k_multiplier", pt[2]}});

@@ -7,6 +7,7 @@
 
 #include <array>
 #include <functional>
+#include <string>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -36,6 +37,7 @@ struct RankRow {
   bool detectable, significant;
   double cond_p = -1;  ///< conditional test given the best effect (-1: not run)
   double wald_p = 1;   ///< the Wald test's p-value
+  std::string unnamed;  ///< why a significant effect was not named after all ("": it was not taken back)
 };
 
 template <template <typename> class DriveT>
@@ -55,6 +57,13 @@ class Ranking {
   /// The rows, best first.
   const std::vector<RankRow>& rows() const { return rows_; }
   bool anySignificant() const;
+  /// The effects named, best first.
+  std::vector<int> named() const;
+  /// The reference with the effects `given` held at their estimates (a noise effect with
+  /// its K multiplier too).
+  RunSpec heldAt(const std::vector<int>& given) const;
+  /// Takes back the name of effect e (its row stays, not significant, with the reason).
+  void unname(int e, const std::string& why);
   /// The ranking of the JSON contract; `joint` is the run with every augmentable
   /// candidate free, whose covariance gives the confusable pairs.
   nlohmann::ordered_json toJson(const RunOut& joint) const;

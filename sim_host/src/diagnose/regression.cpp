@@ -257,12 +257,14 @@ ChangePoint scanChange(const Design& d, double drop) {
   std::vector<std::pair<Eigen::VectorXd, Eigen::VectorXd>> coefs;
   const Eigen::Index lo = n * 15 / 100, hi = n * 85 / 100, step = std::max<Eigen::Index>(1, n / 400);
   double best = -1, sse1_best = sse0;
+  Eigen::Index last_split = -step;
   for (Eigen::Index k = 0; k < hi; ++k) {
     const Eigen::Index i = order[static_cast<std::size_t>(k)];
     pre.add(d.x.row(i).head(p), d.y[i]);
-    if (k + 1 < lo || (k + 1 - lo) % step != 0) continue;
-    // a split between rows of the same time is no split
+    // a split between rows of the same time is no split; splits at least `step` rows apart
+    if (k + 1 < lo || k + 1 - last_split < step) continue;
     if (k + 1 < n && d.t[order[static_cast<std::size_t>(k + 1)]] == d.t[i]) continue;
+    last_split = k + 1;
     Gram post(p);
     post.g = all.g - pre.g;
     post.b = all.b - pre.b;

@@ -1,0 +1,465 @@
+#include "discovery.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <limits>
+
+namespace odoerr::sim::diag {
+
+namespace {
+
+using json = nlohmann::ordered_json;
+using effects::BeamFeature;
+using effects::MotionFeature;
+using effects::MotionTarget;
+
+constexpr double kSegmentS = 0.5;     // a motion segment spans at least this (s)
+constexpr double kClusterS = 10.0;    // rows within this much time may correlate (robust sigma)
+constexpr double kCvBlockS = 2.0;     // cross-validation blocks, as the held-out comparison's
+constexpr double kMaxSegmentM = 0.5;  // a segment residual beyond this is a lost filter, not a residual
+constexpr double kMaxBeamZ = 5.0;     // a beam residual beyond this many sigmas is an outlier
+
+double robustScale(std::vector<double> v) {
+  if (v.empty()) return 1.0;
+  for (double& x : v) x = std::abs(x);
+  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+  const double mad = v[v.size() / 2];
+  return mad > 0 ? 1.4826 * mad : 1.0;
+}
+
+std::string fmt(const char* f, double a) {
+  char b[160];
+  std::snprintf(b, sizeof b, f, a);
+  return b;
+}
+
+}  // namespace
+
+std::string Term::name() const {
+  switch (kind) {
+    case Kind::kMotion: return effects::motionFeatureName(mf);
+    case Kind::kReversal: return mt == MotionTarget::kAlong ? "rev" : (wheel == 0 ? "rev_R" : "rev_L");
+    case Kind::kBeam: return effects::beamFeatureName(bf);
+  }
+  return "?";
+}
+
+std::string Term::target() const { return kind == Kind::kBeam ? "range" : effects::motionTargetName(mt); }
+
+std::string Term::frame() const {
+  if (kind == Kind::kBeam) return "beam";
+  switch (mt) {
+    case MotionTarget::kWorldX:
+    case MotionTarget::kWorldY: return "world";
+    case MotionTarget::kWheelR: return "wheel_R";
+    case MotionTarget::kWheelL: return "wheel_L";
+    default: return "robot";
+  }
+}
+
+std::string Term::words(double c, double sigma) const {
+  const std::string pm = fmt(" (± %.2g)", sigma);
+  if (kind == Kind::kBeam) {
+    switch (bf) {
+      case BeamFeature::kOne: return fmt("every range reads %.1f mm too long (a range bias)", 1e3 * c) + pm;
+      case BeamFeature::kRange: return fmt("ranges read %.3f %% too long per metre of range (a range scale)", 1e2 * c) + pm;
+      case BeamFeature::kInvCosInc:
+        return fmt("ranges read %.1f mm x (1/cos(incidence) - 1) too long: the error grows on oblique walls", 1e3 * c) + pm;
+      case BeamFeature::kAbsInc: return fmt("ranges read %.1f mm per radian of incidence too long", 1e3 * c) + pm;
+      case BeamFeature::kInc2: return fmt("ranges read %.1f mm per rad^2 of incidence too long", 1e3 * c) + pm;
+      case BeamFeature::kAngleSens:
+        return fmt("the beams point %.2f mrad counter-clockwise of where the model casts them (a laser yaw)", 1e3 * c) + pm;
+      case BeamFeature::kAlphaAngleSens:
+        return fmt("the beam angles are scaled by 1 %+.4f: a beam-angle scale error of the scanner", c) + pm;
+      case BeamFeature::kWAngleSens:
+        return fmt("the beams lag the robot's rotation by %.1f ms (a time offset seen in turns)", -1e3 * c) + pm;
+      case BeamFeature::kV: return fmt("ranges read %.1f mm too long per m/s of forward speed", 1e3 * c) + pm;
+      case BeamFeature::kW: return fmt("ranges read %.1f mm too long per rad/s of turn rate", 1e3 * c) + pm;
+      case BeamFeature::kAlpha: return fmt("ranges read %.1f mm too long per radian of beam angle", 1e3 * c) + pm;
+      case BeamFeature::kAlpha2: return fmt("ranges read %.1f mm too long per rad^2 of beam angle", 1e3 * c) + pm;
+      default: break;
+    }
+    return "range += " + fmt("%.4g", c) + " x " + name() + pm;
+  }
+  const std::string which = mt == MotionTarget::kWheelR ? "the right wheel" : "the left wheel";
+  if (kind == Kind::kReversal) {
+    const std::string who = mt == MotionTarget::kAlong ? std::string("the robot") : which;
+    return who + fmt(c < 0 ? " loses %.1f mm of travel each time it reverses (gear play)"
+                           : " gains %.1f mm of travel each time it reverses", 1e3 * std::abs(c)) + pm;
+  }
+  const char* more = c > 0 ? "more" : "less";
+  switch (mt) {
+    case MotionTarget::kWheelR:
+    case MotionTarget::kWheelL:
+      if (mf == MotionFeature::kDsRSpeed || mf == MotionFeature::kDsLSpeed)
+        return which + fmt(" travels %.2f %% ", 1e2 * std::abs(c)) + more + " per m/s of its own speed" + pm;
+      if (mf == MotionFeature::kAbsDs) return which + fmt(" travels %.2f mm ", 1e3 * std::abs(c)) + more + " per m the robot drives, either way" + pm;
+      break;
+    case MotionTarget::kWorldX:
+    case MotionTarget::kWorldY: {
+      const std::string dir = std::string(c > 0 ? "+" : "-") + (mt == MotionTarget::kWorldX ? "x" : "y");
+      if (mf == MotionFeature::kAbsDs)
+        return fmt("the robot drifts %.2f cm per m of travel toward ", 1e2 * std::abs(c)) + dir +
+               " in the world frame, whatever its heading (a slope, a floor that pushes)" + pm;
+      if (mf == MotionFeature::kDt)
+        return fmt("the robot drifts %.2f mm per second toward ", 1e3 * std::abs(c)) + dir + " in the world frame" + pm;
+      break;
+    }
+    case MotionTarget::kAlong:
+      if (mf == MotionFeature::kCosHeadingDs || mf == MotionFeature::kSinHeadingDs)
+        return fmt("the robot travels %.2f %% ", 1e2 * std::abs(c)) + more + " x " +
+               (mf == MotionFeature::kCosHeadingDs ? "cos" : "sin") +
+               "(heading) than the model says: a scale that depends on where it heads" + pm;
+      if (mf == MotionFeature::kAbsDs) return fmt("the robot travels %.2f %% ", 1e2 * std::abs(c)) + more + " forward than the model says, whichever way it drives" + pm;
+      if (mf == MotionFeature::kV2) return fmt("the robot travels %.2f %% ", 1e2 * std::abs(c)) + more + " per m/s of speed" + pm;
+      if (mf == MotionFeature::kSDs) return fmt("the travel scale drifts by %.3f %% ", 1e4 * std::abs(c)) + more + " per 100 m travelled" + pm;
+      if (mf == MotionFeature::kXDs || mf == MotionFeature::kYDs)
+        return fmt("the travel scale changes by %.2f %% per m of ", 1e2 * c) + (mf == MotionFeature::kXDs ? "x" : "y") + " (a floor that differs across the room)" + pm;
+      break;
+    case MotionTarget::kCross:
+      if (mf == MotionFeature::kVW) return fmt("the robot slides %.2f mm sideways (left +) per m of travel per rad/s of turn rate", 1e3 * c) + pm;
+      if (mf == MotionFeature::kDs) return fmt("the robot drifts %.2f mm sideways (left +) per m of travel", 1e3 * c) + pm;
+      if (mf == MotionFeature::kDth) return fmt("the robot's turning centre is %.1f mm off the wheel axis (sideways motion per radian turned)", 1e3 * c) + pm;
+      break;
+    case MotionTarget::kHeading:
+      if (mf == MotionFeature::kAbsDth) return fmt("the robot turns %.2f %% further to the left of what the model says, in turns either way", 1e2 * c) + pm;
+      if (mf == MotionFeature::kW2) return fmt("the robot turns %.2f %% ", 1e2 * std::abs(c)) + more + " per rad/s of turn rate" + pm;
+      if (mf == MotionFeature::kDs || mf == MotionFeature::kAbsDs) return fmt("the heading drifts %.2f mrad per m of travel", 1e3 * c) + pm;
+      break;
+    default: break;
+  }
+  return target() + " += " + fmt("%.4g", c) + " x " + name() + " (" + effects::motionTargetUnit(mt) + " per " +
+         effects::motionFeatureUnit(mf) + ")" + pm;
+}
+
+double structuredMisfit(const Selection& s) { return std::max(0.0, s.sse_cv_nuisance - s.sse_cv); }
+
+namespace {
+
+/// The share of base's misfit (per row) that `with` removed, clamped to [0, 1]; NaN when
+/// base shows no misfit.
+std::pair<double, double> removed(const Selection& base, const Selection& with) {
+  const double m = structuredMisfit(base);
+  if (!(m > 0) || base.rows == 0 || with.rows == 0) return {0, 0};
+  const double a = base.sse_cv_nuisance / base.rows, b = with.sse_cv_nuisance / with.rows;
+  return {std::clamp((a - b) * base.rows, 0.0, m), m};
+}
+
+json featuresOf(const Residuals& r) {
+  json f = json::array();
+  auto add = [&](const Selection& s, const std::vector<Term>& terms) {
+    for (std::size_t k = 0; k < s.terms.size() && k < s.coef.size(); ++k) {
+      const Term& t = terms[static_cast<std::size_t>(s.terms[k])];
+      f.push_back({{"name", t.name()}, {"frame", t.frame()}, {"component", t.target()}, {"coef", s.coef[k]},
+                   {"sigma", s.sigma[k]}, {"words", t.words(s.coef[k], s.sigma[k])}});
+    }
+  };
+  add(r.motion_sel, r.motion_terms);
+  add(r.beam_sel, r.beam_terms);
+  return f;
+}
+
+json designJson(const Selection& s, int units, const char* unit_name, double extra = -1) {
+  json j = {{unit_name, units},
+            {"rows", s.rows},
+            {"sse_cv_model", s.sse_cv_nuisance},
+            {"sse_cv_features", s.sse_cv},
+            {"features_explain", s.sse_cv_nuisance > 0 ? json(s.explained()) : json(nullptr)}};
+  if (extra >= 0) j["segment_s"] = extra;
+  return j;
+}
+
+}  // namespace
+
+json explainedBy(const Residuals& base, const Residuals& with) {
+  const auto [dm, mm] = removed(base.motion_sel, with.motion_sel);
+  const auto [db, mb] = removed(base.beam_sel, with.beam_sel);
+  auto frac = [](double d, double m) { return m > 0 ? json(d / m) : json(nullptr); };
+  return {{"motion", frac(dm, mm)}, {"beam", frac(db, mb)}, {"total", frac(dm + db, mm + mb)}};
+}
+
+json unexplainedJson(const Residuals& base, const Residuals& final_, bool named) {
+  const json features = featuresOf(final_);
+  const double misfit = structuredMisfit(base.motion_sel) + structuredMisfit(base.beam_sel);
+  json frac = nullptr;
+  if (misfit > 0) frac = named ? explainedBy(base, final_)["total"] : json(0.0);
+  json j = {{"significant", !features.empty()},
+            {"explained_fraction", frac},
+            {"features", features},
+            {"motion", designJson(final_.motion_sel, final_.segments, "segments", final_.seg_s)},
+            {"beam", designJson(final_.beam_sel, static_cast<int>(final_.beams), "beams")},
+            {"baseline_features", featuresOf(base)}};
+  if (misfit <= 0)
+    j["note"] = "the model's residuals show no structure in the feature library";
+  else if (features.empty())
+    j["note"] = "the named effects explain the structure the features found";
+  else if (!named)
+    j["note"] = "nothing in the catalogue explains the misfit: these features describe it";
+  else
+    j["note"] = "part of the misfit remains with the named effects in the model: these features describe it";
+  return j;
+}
+
+template <template <typename> class DriveT>
+Residuals Discovery<DriveT>::analyse(const RunOut& run, Scales* scales) const {
+  using M = typename En::M;
+  using Drive = typename En::Drive;
+  using S = double;
+  constexpr bool kSync = En::kSync;
+  Residuals out;
+  const M model = en_.makeModel();
+  const typename M::StateVec x = run.x;
+  const typename M::NoiseVec nu0 = M::NoiseVec::Zero();
+  const auto p = x.template segment<Drive::kParams>(En::kD);
+  double d = 0.0;  // the wheelbase (diff)
+  if constexpr (!kSync) d = double(model.drive.wheelbase);
+  double xc = en_.log().init.x, yc = en_.log().init.y;
+  if (!en_.log().walls.empty()) {
+    double x0 = 1e300, x1 = -1e300, y0 = 1e300, y1 = -1e300;
+    for (const auto& w : en_.log().walls) {
+      x0 = std::min({x0, w.x1, w.x2});
+      x1 = std::max({x1, w.x1, w.x2});
+      y0 = std::min({y0, w.y1, w.y2});
+      y1 = std::max({y1, w.y1, w.y2});
+    }
+    xc = 0.5 * (x0 + x1);
+    yc = 0.5 * (y0 + y1);
+  }
+
+  // The library: nuisance columns first (what the drive parameters already estimate),
+  // then the candidates.
+  std::vector<Term>& terms = out.motion_terms;
+  auto motion = [&](MotionFeature f, MotionTarget t) { terms.push_back({Term::Kind::kMotion, f, t}); };
+  int n_nuisance;
+  if constexpr (kSync) {
+    motion(MotionFeature::kDs, MotionTarget::kAlong);    // delta_rho
+    motion(MotionFeature::kDs, MotionTarget::kHeading);  // E_theta
+    n_nuisance = 2;
+  } else {
+    motion(MotionFeature::kDsR, MotionTarget::kWheelR);  // delta_R
+    motion(MotionFeature::kDsL, MotionTarget::kWheelL);  // delta_L
+    motion(MotionFeature::kDth, MotionTarget::kHeading);  // delta_d
+    n_nuisance = 3;
+  }
+  const MotionFeature robot_features[] = {
+      MotionFeature::kDs,           MotionFeature::kAbsDs,        MotionFeature::kDth, MotionFeature::kAbsDth,
+      MotionFeature::kVW,           MotionFeature::kV2,           MotionFeature::kW2,  MotionFeature::kCosHeadingDs,
+      MotionFeature::kSinHeadingDs, MotionFeature::kXDs,          MotionFeature::kYDs, MotionFeature::kSDs,
+      MotionFeature::kDt};
+  for (MotionTarget t : {MotionTarget::kAlong, MotionTarget::kCross, MotionTarget::kHeading})
+    for (MotionFeature f : robot_features) {
+      const bool nuisance = std::any_of(terms.begin(), terms.begin() + n_nuisance,
+                                        [&](const Term& q) { return q.mf == f && q.mt == t; });
+      if (!nuisance) motion(f, t);
+    }
+  for (MotionTarget t : {MotionTarget::kWorldX, MotionTarget::kWorldY})
+    for (MotionFeature f : {MotionFeature::kAbsDs, MotionFeature::kDt}) motion(f, t);
+  terms.push_back({Term::Kind::kReversal, MotionFeature::kNone, MotionTarget::kAlong});
+  if constexpr (!kSync) {
+    motion(MotionFeature::kDsRSpeed, MotionTarget::kWheelR);
+    motion(MotionFeature::kDsLSpeed, MotionTarget::kWheelL);
+    motion(MotionFeature::kAbsDs, MotionTarget::kWheelR);
+    motion(MotionFeature::kAbsDs, MotionTarget::kWheelL);
+    motion(MotionFeature::kSDs, MotionTarget::kWheelR);
+    motion(MotionFeature::kSDs, MotionTarget::kWheelL);
+    terms.push_back({Term::Kind::kReversal, MotionFeature::kNone, MotionTarget::kWheelR, BeamFeature::kNone, 0});
+    terms.push_back({Term::Kind::kReversal, MotionFeature::kNone, MotionTarget::kWheelL, BeamFeature::kNone, 1});
+  }
+  const int nt = static_cast<int>(terms.size());
+
+  // Segments between fused measurements, at least kSegmentS apart, after the warm-up.
+  const auto& ev = en_.events();
+  const auto& post = run.post;
+  const double t0 = ev.empty() ? 0.0 : ev.front().t;
+  std::vector<int> bounds;
+  for (std::size_t i = 0; i < post.size(); ++i) {
+    if (post[i].t - t0 < opt_.warmup_s) continue;
+    if (bounds.empty() || post[i].t - post[static_cast<std::size_t>(bounds.back())].t >= kSegmentS)
+      bounds.push_back(static_cast<int>(i));
+  }
+  struct Seg {
+    double t, tm;
+    Eigen::Vector3d r;
+    Eigen::MatrixXd a;  // 3 x terms
+  };
+  std::vector<Seg> segs;
+  MotionContext<S> ctx;
+  int last_sign[3] = {0, 0, 0};  // robot, right wheel, left wheel
+  std::size_t next_bound = 0;
+  Pose<S> pp{};
+  bool in_seg = false;
+  double seg_start = 0;
+  Eigen::MatrixXd acc(3, nt);
+  Eigen::MatrixXd th_acc(1, nt), thp_acc(2, nt);  // sum of heading parts, and of heading part x position
+  for (std::size_t k = 0; k < ev.size(); ++k) {
+    const Event& e = ev[k];
+    const typename Drive::Input u{e.a, e.b};
+    ctx.dt = e.dt;
+    ctx.x = pp.x;
+    ctx.y = pp.y;
+    ctx.setHeading(pp.theta);
+    S drive_rho = 0;
+    const Increment<S> inc = model.increment(u, x, nu0, ctx, nullptr, nullptr, &drive_rho);
+    const Increment<S> dinc = model.drive.increment(u, p, nu0);
+    if (in_seg) {
+      // every term's displacement at this cycle, per unit coefficient
+      const double m = pp.theta + 0.5 * inc.theta, cm = std::cos(m), sm = std::sin(m);
+      const Pose<S> after = applyIncrement(pp, inc);
+      const double wheel_travel[3] = {dinc.rho, dinc.rho + 0.5 * d * dinc.theta, dinc.rho - 0.5 * d * dinc.theta};
+      int rev[3] = {0, 0, 0};
+      for (int w = 0; w < 3; ++w) {
+        const int sg = wheel_travel[w] > 0 ? 1 : (wheel_travel[w] < 0 ? -1 : 0);
+        if (sg != 0 && last_sign[w] != 0 && sg != last_sign[w]) rev[w] = sg;
+      }
+      for (int j = 0; j < nt; ++j) {
+        const Term& tm = terms[static_cast<std::size_t>(j)];
+        double f;
+        if (tm.kind == Term::Kind::kReversal)
+          f = tm.mt == MotionTarget::kAlong ? rev[0] : rev[1 + tm.wheel];
+        else
+          f = effects::motionFeature(tm.mf, dinc.rho, dinc.theta, ctx, d, xc, yc).f;
+        if (f == 0) continue;
+        S dir[3];
+        effects::motionTargetDirection(tm.mt, ctx, d, dir);
+        const double dr = f * dir[0], dth = f * dir[1], ds = f * dir[2];
+        acc(0, j) += dr * cm - ds * sm;
+        acc(1, j) += dr * sm + ds * cm;
+        acc(2, j) += dth;
+        th_acc(0, j) += dth;
+        thp_acc(0, j) += dth * after.x;
+        thp_acc(1, j) += dth * after.y;
+      }
+      pp = after;
+    }
+    for (int w = 0; w < 3; ++w) {
+      const double tr = w == 0 ? dinc.rho : (w == 1 ? dinc.rho + 0.5 * d * dinc.theta : dinc.rho - 0.5 * d * dinc.theta);
+      const int sg = tr > 0 ? 1 : (tr < 0 ? -1 : 0);
+      if (sg != 0) last_sign[w] = sg;
+    }
+    ctx.advance(drive_rho, Drive::encoderTravel(u));
+    // A boundary: close the open segment, open the next.
+    if (next_bound < bounds.size() && post[static_cast<std::size_t>(bounds[next_bound])].event == static_cast<int>(k)) {
+      const PostPose& q = post[static_cast<std::size_t>(bounds[next_bound])];
+      if (in_seg) {
+        Seg sg;
+        sg.t = q.t;
+        sg.tm = 0.5 * (q.t + seg_start);
+        sg.r = Eigen::Vector3d(q.x - pp.x, q.y - pp.y, wrapAngle(q.th - pp.theta));
+        // a heading part at a cycle turns the rest of the segment's path about that cycle
+        sg.a = acc;
+        for (int j = 0; j < nt; ++j) {
+          sg.a(0, j) += -(th_acc(0, j) * pp.y - thp_acc(1, j));
+          sg.a(1, j) += th_acc(0, j) * pp.x - thp_acc(0, j);
+        }
+        if (sg.r.template head<2>().norm() < kMaxSegmentM) segs.push_back(sg);
+      }
+      pp = Pose<S>{q.x, q.y, q.th};
+      seg_start = q.t;
+      acc.setZero();
+      th_acc.setZero();
+      thp_acc.setZero();
+      in_seg = true;
+      ++next_bound;
+    }
+  }
+
+  // Standardised rows: each component over its robust scale.
+  Scales own;
+  for (int c = 0; c < 3; ++c) {
+    std::vector<double> v;
+    for (const Seg& s : segs) v.push_back(s.r[c]);
+    own.motion[c] = robustScale(v);
+  }
+  if (scales != nullptr && scales->motion[0] > 0) {
+    for (int c = 0; c < 3; ++c) own.motion[c] = scales->motion[c];
+  }
+  Design& dm = out.motion;
+  dm.n_nuisance = n_nuisance;
+  const Eigen::Index rows = static_cast<Eigen::Index>(segs.size()) * 3;
+  dm.x.resize(rows, nt);
+  dm.y.resize(rows);
+  dm.t.resize(rows);
+  for (std::size_t i = 0; i < segs.size(); ++i) {
+    const int block = static_cast<int>((segs[i].tm - t0) / kCvBlockS), cl = static_cast<int>((segs[i].tm - t0) / kClusterS);
+    for (int c = 0; c < 3; ++c) {
+      const Eigen::Index r = static_cast<Eigen::Index>(i) * 3 + c;
+      dm.y[r] = segs[i].r[c] / own.motion[c];
+      dm.x.row(r) = segs[i].a.row(c) / own.motion[c];
+      dm.t[r] = segs[i].t;
+      dm.fold.push_back(block % dm.folds);
+      dm.cluster.push_back(cl);
+    }
+  }
+  out.segments = static_cast<int>(segs.size());
+  out.seg_s = segs.size() > 1 ? (segs.back().t - segs.front().t) / double(segs.size() - 1) : 0.0;
+
+  // Beams at the posterior.
+  std::vector<Term>& bterms = out.beam_terms;
+  for (int f = 1; f < effects::kBeamFeatureCount; ++f)
+    bterms.push_back({Term::Kind::kBeam, MotionFeature::kNone, MotionTarget::kAlong, static_cast<BeamFeature>(f)});
+  const int nb = static_cast<int>(bterms.size());
+  std::vector<double> nus;
+  for (const PostBeam& b : run.post_beams) nus.push_back(b.nu);
+  own.beam = scales != nullptr && scales->beam > 0 ? scales->beam : robustScale(nus);
+  std::vector<std::pair<const PostBeam*, effects::BeamFeatureInputs<S>>> kept;
+  for (const PostBeam& b : run.post_beams) {
+    const PostPose& q = post[static_cast<std::size_t>(b.post)];
+    if (q.t - t0 < opt_.warmup_s || std::abs(b.nu) > kMaxBeamZ * own.beam) continue;
+    effects::BeamFeatureInputs<S> in;
+    if (!effects::beamFeatureInputs(en_.map(), en_.laser(), q.x, q.y, q.th, b.beam, q.v, q.w, &in)) continue;
+    kept.push_back({&b, in});
+  }
+  Design& db = out.beam;
+  db.n_nuisance = 0;
+  db.x.resize(static_cast<Eigen::Index>(kept.size()), nb);
+  db.y.resize(static_cast<Eigen::Index>(kept.size()));
+  db.t.resize(static_cast<Eigen::Index>(kept.size()));
+  for (std::size_t i = 0; i < kept.size(); ++i) {
+    const Eigen::Index r = static_cast<Eigen::Index>(i);
+    const PostPose& q = post[static_cast<std::size_t>(kept[i].first->post)];
+    db.y[r] = kept[i].first->nu / own.beam;
+    for (int j = 0; j < nb; ++j) db.x(r, j) = effects::beamFeature(bterms[static_cast<std::size_t>(j)].bf, kept[i].second) / own.beam;
+    db.t[r] = q.t;
+    db.fold.push_back(static_cast<int>((q.t - t0) / kCvBlockS) % db.folds);
+    db.cluster.push_back(static_cast<int>((q.t - t0) / kClusterS));
+  }
+  out.beams = static_cast<long>(kept.size());
+  if (scales != nullptr && !(scales->motion[0] > 0)) *scales = own;
+
+  const SelectOptions sel;
+  out.motion_sel = forwardSelect(dm, sel);
+  out.beam_sel = forwardSelect(db, sel);
+  return out;
+}
+
+template <template <typename> class DriveT>
+json Discovery<DriveT>::changePoints(const Residuals& r) const {
+  json cps = json::array();
+  if (r.segments < 40) return cps;
+  Design d = r.motion;
+  d.x = d.x.leftCols(d.n_nuisance).eval();
+  const ChangePoint cp = scanChange(d);
+  if (std::getenv("ODOERR_DEBUG_CP")) std::fprintf(stderr, "cp stat %g thr %g t %g [%g %g]\n", cp.stat, cp.threshold, cp.t, cp.t_lo, cp.t_hi);
+  if (!cp.found) return cps;
+  std::string what = "the drive parameters change:";
+  for (int i = 0; i < d.n_nuisance; ++i) {
+    const Term& t = r.motion_terms[static_cast<std::size_t>(i)];
+    const double delta = cp.after[static_cast<std::size_t>(i)] - cp.before[static_cast<std::size_t>(i)];
+    const std::string who = t.mt == MotionTarget::kWheelR   ? " the right wheel's travel scale"
+                            : t.mt == MotionTarget::kWheelL ? " the left wheel's travel scale"
+                            : t.mt == MotionTarget::kAlong  ? " the travel scale"
+                            : t.mf == MotionFeature::kDth   ? " the turn scale"
+                                                            : " the heading drift per metre";
+    what += (i ? "," : "") + who + fmt(" %+.2f %%", 1e2 * delta);
+  }
+  cps.push_back({{"t", cp.t}, {"t_lo", cp.t_lo}, {"t_hi", cp.t_hi}, {"what", what},
+                 {"statistic", cp.stat}, {"critical_1pct", cp.threshold}, {"residual", "motion"}});
+  return cps;
+}
+
+template class Discovery<SyncDrive>;
+template class Discovery<DiffDrive>;
+
+}  // namespace odoerr::sim::diag
