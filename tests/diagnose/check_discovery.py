@@ -65,7 +65,7 @@ CASES = {
                              expect=[("wheel_R", None, {"ds_R", "ds", "abs_ds", "t_ds", "s_ds"}),
                                      ("robot", "heading", {"ds_R", "t_ds", "s_ds"})]),
     # left wheel drag, quadratic in its speed: L *= 1 - k v_L^2
-    "ooc_one_wheel_drag": dict(values=[0.05], kind="motion",
+    "ooc_one_wheel_drag": dict(values=[0.1], kind="motion",
                                expect=[("wheel_L", None, {"ds_L_speed", "v2", "ds_L"}),
                                        ("robot", "heading", {"ds_L_speed"})]),
     # slip angle cubic in the centripetal acceleration: side += k (v w)^3 rho
@@ -75,7 +75,7 @@ CASES = {
     "ooc_incidence_bias": dict(values=[0.015], kind="measurement",
                                expect=[("beam", None, {"inv_cos_inc", "inc2", "abs_inc"})]),
     # mirror speed error: the true beam angle is alpha (1 + s)
-    "ooc_beam_angle_scale": dict(values=[0.003], kind="measurement",
+    "ooc_beam_angle_scale": dict(values=[0.002], kind="measurement",
                                  expect=[("beam", None, {"alpha_angle_sens"})]),
     # laser warming up: r += c t
     "ooc_range_time_drift": dict(values=[1e-4], kind="measurement",

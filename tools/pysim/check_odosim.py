@@ -362,7 +362,7 @@ def check_wheel_forms(sim):
           f"scaled by 1 + kR from the cycle at t = {first_changed * sim.DT:.2f} s on, "
           f"the left untouched")
 
-    k_dr = 0.05
+    k_dr = 0.1
     enc, tr, _ = open_loop(sim, {"ooc_one_wheel_drag": [k_dr]})
     R, L = wheels(sim, tr)
     m = np.abs(L0) > 1e-6
@@ -457,7 +457,7 @@ def check_beam_forms(sim):
           f"c (1/cos 40 - 1) = {1e3 * d[i40]:.3f} mm at 40 deg, c (1/cos - 1) on every beam "
           f"(error {err:.1e})")
 
-    s = 0.003
+    s = 0.002
     _, r = sim.simulate_scans(truth, sim.SCAN_EVERY, {"ooc_beam_angle_scale": [s]},
                               np.random.default_rng(1))
     noise = ref[0] - ray_ranges(x, y, th, laser, walls)          # the same draws
