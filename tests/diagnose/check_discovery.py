@@ -305,14 +305,14 @@ def check_clean(args, seeds):
                     info.append("auto %.1f s" % a_s)
                 except Missing as e:
                     missing.append("--with auto: " + str(e))
+        parts = []
         if missing:
             broken.append(s)
-            status = "FAIL: diagnose JSON has no %s" % ", ".join("'%s'" % m for m in missing)
-        elif why:
+            parts.append("FAIL: diagnose JSON has no %s" % ", ".join("'%s'" % m for m in missing))
+        if why:
             flagged.append(s)
-            status = "flagged: " + "; ".join(why)
-        else:
-            status = "clean"
+            parts.append("flagged: " + "; ".join(why))
+        status = " | ".join(parts) or "clean"
         lines.append("  clean seed %d: %s | verdict %s, NIS %s%s | odosim %.2f s, diagnose %.1f s" % (
             s, status, j.get("verdict"), fmt(j.get("tests", {}).get("nis_mean"), ".3f"),
             ", " + ", ".join(info) if info else "", gen_s, diag_s))
