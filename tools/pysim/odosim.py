@@ -109,7 +109,8 @@ R = rho + dtheta d/2, L = rho - dtheta d/2 with d = wheelbase * delta_d (the tru
 wheelbase, so R and L are the wheels' mean travels delta_R rho_eR, delta_L rho_eL exactly);
 then rho = (R + L)/2, dtheta = (R - L)/d. As for the robot-level effects, each wheel's
 factor is evaluated on the noise-free travel and applied to it and to the noisy wheel
-travel alike. They act before the robot-level effects (the catalogue's list); with one
+travel alike (with --noisy-rates, evaluated on the noisy travels). They act before the
+robot-level effects (the catalogue's list); with one
 effect active the order does not matter. v_X = X / dt.
     wheel_backlash b_R,b_L     per wheel X, with s_rev_X its |travel| since ITS OWN last
                                reversal (sign of X opposite to the last non-zero sign of X;
@@ -623,15 +624,17 @@ def simulate_motion(drive, n_steps, effects, path, rng_sched, rng_noise, rng_tur
                 # Per-wheel effects, on the drive model's noise-free wheel travels
                 # R = rho + dtheta d/2, L = rho - dtheta d/2 (d = wheelbase * delta_d, so
                 # these are mr, ml exactly); each factor is applied to the noisy travel too.
-                gR = wb_R.factor(mr)
-                gL = wb_L.factor(ml)
+                # (--noisy-rates: evaluated on the noisy travels instead)
+                xR, xL = (wr, wl) if noisy_rates else (mr, ml)
+                gR = wb_R.factor(xR)
+                gL = wb_L.factor(xL)
                 if wss_R or wss_L:
-                    gR *= 1.0 + wss_R * abs(mr / DT)
-                    gL *= 1.0 + wss_L * abs(ml / DT)
+                    gR *= 1.0 + wss_R * abs(xR / DT)
+                    gL *= 1.0 + wss_L * abs(xL / DT)
                 if ab_kR and t >= ab_tc:
                     gR *= 1.0 + ab_kR
                 if drag_k:
-                    gL *= 1.0 - drag_k * (ml / DT) ** 2
+                    gL *= 1.0 - drag_k * (xL / DT) ** 2
                 mr, wr = mr * gR, wr * gR
                 ml, wl = ml * gL, wl * gL
             rho_m, dth_m = 0.5 * (mr + ml), (mr - ml) / base
