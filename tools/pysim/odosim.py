@@ -110,8 +110,8 @@ wheelbase, so R and L are the wheels' mean travels delta_R rho_eR, delta_L rho_e
 then rho = (R + L)/2, dtheta = (R - L)/d. As for the robot-level effects, each wheel's
 factor is evaluated on the noise-free travel and applied to it and to the noisy wheel
 travel alike (with --noisy-rates, evaluated on the noisy travels). They act before the
-robot-level effects (the catalogue's list); with one
-effect active the order does not matter. v_X = X / dt.
+robot-level effects (the catalogue's list); with one effect active the order does not
+matter. v_X = X / dt.
     wheel_backlash b_R,b_L     per wheel X, with s_rev_X its |travel| since ITS OWN last
                                reversal (sign of X opposite to the last non-zero sign of X;
                                infinite before the first): while s_rev_X < 0.05 m,
