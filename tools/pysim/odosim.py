@@ -16,8 +16,9 @@ Usage
                                   [--noisy-rates]
     python3 tools/pysim/odosim.py --list-effects
 
-``--effect`` may be repeated; the values are the effect's parameters in the order of the
-catalogue, e.g. ``--effect turn_slip=0.03``, ``--effect laser_mount_xy=0.02,-0.01``,
+``--effect`` may be repeated (catalogue effects, per-wheel effects and out-of-catalogue
+``ooc_`` forms below, in any combination); the values are the effect's parameters in the
+order of the catalogue, e.g. ``--effect turn_slip=0.03``, ``--effect laser_mount_xy=0.02,-0.01``,
 ``--effect wall_offset=0.05,0,0,0`` (wall_offset takes 1..W values, W = number of walls;
 missing trailing walls get 0). Unknown names, repeated names or wrong value counts are
 an error (exit status 2). Effects that are not named keep their nominal value 0.
@@ -101,6 +102,100 @@ Measurement effects change the ranges:
 Ray casting is exact against the true (possibly offset) segments; Gaussian range noise
 sigma = 0.03 m is added last; no return (or a true range beyond range_max) gives nan.
 
+Per-wheel catalogue effects (diff drive only; refused for sync with exit status 2)
+---------------------------------------------------------------------------------
+They act on the drive model's noise-free wheel travels of the cycle,
+R = rho + dtheta d/2, L = rho - dtheta d/2 with d = wheelbase * delta_d (the truth's
+wheelbase, so R and L are the wheels' mean travels delta_R rho_eR, delta_L rho_eL exactly);
+then rho = (R + L)/2, dtheta = (R - L)/d. As for the robot-level effects, each wheel's
+factor is evaluated on the noise-free travel and applied to it and to the noisy wheel
+travel alike (with --noisy-rates, evaluated on the noisy travels). They act before the
+robot-level effects (the catalogue's list); with one effect active the order does not
+matter. v_X = X / dt.
+    wheel_backlash b_R,b_L     per wheel X, with s_rev_X its |travel| since ITS OWN last
+                               reversal (sign of X opposite to the last non-zero sign of X;
+                               infinite before the first): while s_rev_X < 0.05 m,
+                               X *= 1 - (b_X / 0.05) min(1, (0.05 - s_rev_X) / |X|):
+                               exactly b_X is lost per reversal of that wheel, whatever
+                               the cycle length (the robot-level backlash, per wheel).
+                               Test size 0.01, 0.006 m.
+    wheel_speed_scale k_R,k_L  X *= 1 + k_X |v_X|.  Test size 0.05, 0.02 s/m.
+The wheel statistics use the travel before any effect; the robot's s_abs, s_rev, ... are
+still those of the drive model's increment before the effects.
+
+Out-of-catalogue forms (``ooc_`` prefix)
+----------------------------------------
+Physically plausible effects that are NOT in the catalogue's exact form: drives for
+testing what diagnose reports when the model lacks something the catalogue cannot express
+(residual discovery, tests/diagnose/check_discovery.py). Each is listed with its formula,
+parameters, test size (physically plausible and clearly visible on a 4-minute drive; for
+comparison, on seed 21 the catalogue's test sizes change the per-0.5 s increments by an
+RMS of 2.3 mm cross-track (turn_slip 0.05), 6.1 mm along-track (speed_scale 0.05),
+and the ranges by 20 mm (range_bias 0.02)) and where the residuals of a model without it
+should show it: frame (robot: along/cross/heading of each 0.5 s segment's motion; world:
+x/y; wheel_R, wheel_L: a wheel's travel; beam: the range) and feature (the names of the
+residual-discovery feature library, docs/diagnostics.md). Rates, travel and wheel travels
+are the drive model's noise-free values, as for the catalogue's effects. They act after
+the catalogue's robot-level effects (the wheel forms with the per-wheel effects).
+
+Motion forms:
+    ooc_world_drift cx,cy        after the pose update, x += cx |travel|, y += cy |travel|
+                                 (travel: the drive model's rho before any effect): the
+                                 robot is pushed in the WORLD frame by (cx, cy) per metre
+                                 driven, whatever its heading or direction (a tilted floor:
+                                 the robot creeps downhill). Test size 0.012, -0.008 (1.4 cm
+                                 per metre; RMS 2.3 mm along, 2.1 mm cross per segment).
+                                 Shows in: world x/y, abs_ds (or dt at near-constant speed).
+    ooc_heading_scale k,theta0   rho *= 1 + k cos(theta - theta0), theta the true heading at
+                                 the start of the cycle (a carpet's pile direction: the
+                                 tyres travel further with the pile than against it).
+                                 Test size 0.03, 0.5 rad (4.4 mm RMS along).
+                                 Shows in: robot along, cos_heading_ds / sin_heading_ds.
+    ooc_abrupt_scale t_c,kR      (diff) from the first cycle with t >= t_c (s, from the log's
+                                 start) on, R *= 1 + kR: the right tyre loses pressure at
+                                 t_c, its rolling radius falls by -kR. Test size 120 s,
+                                 -0.02 (1 mm of a 50 mm radius; 1.1 deg of heading per
+                                 metre; 6.4 mrad RMS heading per segment after t_c).
+                                 Shows as: a change point at t_c; wheel_R ds_R (robot
+                                 heading, ds_R).
+    ooc_one_wheel_drag k         (diff) L *= 1 - k v_L^2: the left wheel alone slips
+                                 backwards more the faster it turns, quadratically (a
+                                 dragging brake or bearing); the catalogue's speed forms are
+                                 linear in |v| and act on both wheels. Test size 0.1 s^2/m^2
+                                 (2.5 % at 0.5 m/s, 6.4 % at 0.8 m/s; the drive model's
+                                 delta_L absorbs the mean, so what is left is weak: today's
+                                 diagnose calls the drive consistent, even at 0.1).
+                                 Shows in: wheel_L ds_L_speed.
+    ooc_turn_slip_cubic k        side += k (v w)^3 rho: the tyres' slip angle grows with the
+                                 CUBE of the centripetal acceleration a = v w (the next odd
+                                 term of a tyre's lateral force curve as it starts to
+                                 saturate), where the catalogue's turn_slip is linear in a
+                                 (side += k v w rho). Test size 0.2 s^6/m^3: slip angle 3 deg
+                                 at a = 0.64 m/s^2 (0.8 m/s on the 1 m lobe), 0.2 deg at
+                                 0.25 m/s^2 (1.6 mm RMS cross, up to 19 mm).
+                                 Shows in: robot cross, v_w (or w2, v2, dth).
+Measurement forms (the truth's motion, encoders and range noise are those of the clean
+drive with the same seed, so the ranges differ by the form alone; applied to the true range
+before range_bias and range_scale):
+    ooc_incidence_bias c         r += c (1/cos(inc) - 1), inc the angle between the beam and
+                                 the hit wall's normal, held at its 80 deg value beyond 80
+                                 deg (the spot smears along an oblique wall and the return
+                                 comes late; zero at normal incidence). Test size 0.015 m
+                                 (1.5 cm at 60 deg, at most 7 cm).
+                                 Shows in: beam, inv_cos_inc (or inc2, abs_inc).
+    ooc_beam_angle_scale s       the beam with angle alpha in the laser frame (alpha in
+                                 [-pi, pi), 0 straight ahead) is really cast at
+                                 alpha (1 + s), before the mount yaw is added (the mirror
+                                 turns faster than nominal, angles referenced to the forward
+                                 index mark). Test size 0.002 (6 mrad at the rear beams,
+                                 3 mrad sideways; 0.003 gave a mean NIS of 1.5 on seed 21).
+                                 Shows in: beam, alpha_angle_sens (= alpha dr/dalpha).
+    ooc_range_time_drift c       r += c t, t the scan's time stamp in s from the log's start
+                                 (the laser warms up). Test size 1e-4 m/s (2.4 cm after
+                                 4 minutes). Shows in: beam, t.
+None of them draws random numbers: the same seed gives the same noise whatever is
+injected.
+
 Sensors and records
 -------------------
 Encoders and truth at 100 Hz, a 36-beam laser at 10 Hz (angle_min -pi, step 2 pi/36,
@@ -160,6 +255,7 @@ ANGLE_INC = 2.0 * math.pi / N_BEAMS
 RANGE_MAX = 20.0
 RANGE_SIGMA = 0.03
 MOUNT = (0.1, 0.0, 0.0)   # x, y, yaw in the robot frame
+INCIDENCE_COS_MIN = math.cos(math.radians(80.0))   # ooc_incidence_bias saturates at 80 deg
 
 # Map: each polygon counter-clockwise; walls are consecutive vertex pairs.
 ROOM = [(0.0, 0.0), (10.0, 0.0), (10.0, 10.0), (0.0, 10.0)]
@@ -201,6 +297,43 @@ EFFECTS = {
     "scan_latency": (1, "measurement", "tau (s): scan stamped t taken at t - tau"),
     "wall_offset": (None, "measurement",
                     "o_1..o_W (m): wall w moved o_w along its left normal"),
+    # per-wheel catalogue effects (diff drive only)
+    "wheel_backlash": (2, "motion", "b_R, b_L (m): the travel inside 0.05 m after the "
+                       "wheel's own reversal is scaled by 1 - b_X/0.05"),
+    "wheel_speed_scale": (2, "motion", "k_R, k_L (s/m): X *= 1 + k_X |v_X| per wheel"),
+    # out-of-catalogue forms (see the docstring: "Out-of-catalogue forms")
+    "ooc_world_drift": (2, "motion", "cx, cy (1): pose += (cx, cy) |travel| in the WORLD "
+                        "frame (tilted floor)"),
+    "ooc_heading_scale": (2, "motion", "k (1), theta0 (rad): rho *= 1 + k cos(theta - "
+                          "theta0) (carpet pile)"),
+    "ooc_abrupt_scale": (2, "motion", "t_c (s), kR (1): R *= 1 + kR from t >= t_c on "
+                         "(a tyre loses pressure)"),
+    "ooc_one_wheel_drag": (1, "motion", "k (s^2/m^2): L *= 1 - k v_L^2 (left wheel drag)"),
+    "ooc_turn_slip_cubic": (1, "motion", "k (s^6/m^3): side += k (v w)^3 rho (tyre "
+                            "slip angle cubic in lateral acceleration)"),
+    "ooc_incidence_bias": (1, "measurement", "c (m): r += c (1/cos(inc) - 1) (spot "
+                           "smear on oblique walls)"),
+    "ooc_beam_angle_scale": (1, "measurement", "s (1): the true beam angle is alpha (1 + s) "
+                             "(mirror speed error)"),
+    "ooc_range_time_drift": (1, "measurement", "c (m/s): r += c t (laser warming up)"),
+}
+
+# Effects that act on the two wheels separately: the differential drive only.
+DIFF_ONLY = {"wheel_backlash", "wheel_speed_scale", "ooc_abrupt_scale", "ooc_one_wheel_drag"}
+
+# Suggested test sizes of the effects added for per-wheel and residual-discovery tests:
+# physically plausible and clearly visible on a 4-minute drive (see the docstring).
+TEST_SIZES = {
+    "wheel_backlash": [0.01, 0.006],
+    "wheel_speed_scale": [0.05, 0.02],
+    "ooc_world_drift": [0.012, -0.008],
+    "ooc_heading_scale": [0.03, 0.5],
+    "ooc_abrupt_scale": [120.0, -0.02],
+    "ooc_one_wheel_drag": [0.1],
+    "ooc_turn_slip_cubic": [0.2],
+    "ooc_incidence_bias": [0.015],
+    "ooc_beam_angle_scale": [0.002],
+    "ooc_range_time_drift": [1e-4],
 }
 
 
@@ -343,10 +476,48 @@ def speed_schedule(rng, duration):
 # Motion simulation
 # ---------------------------------------------------------------------------
 
+BACKLASH_SPAN = 0.05      # m of travel after a reversal over which backlash acts
+
+
+class SpanLoss:
+    """Backlash on one signed travel stream (a wheel's, for wheel_backlash).
+
+    factor(travel) is called once per cycle with the stream's noise-free drive-model
+    travel of that cycle and returns the factor of the cycle's travel: a reversal (sign
+    opposite to the last non-zero sign) sets s_rev = 0 for this cycle; while
+    s_rev < 0.05 m, only the part of the travel inside the span loses, a fraction b/0.05,
+    so exactly b is lost per reversal whatever the cycle length. s_rev then grows by
+    |travel| (infinite before the first reversal)."""
+
+    def __init__(self, b):
+        self.b = b
+        self.s_rev = math.inf
+        self.last_sign = 0
+
+    def factor(self, travel):
+        sign = (travel > 0.0) - (travel < 0.0)
+        if sign != 0 and self.last_sign != 0 and sign != self.last_sign:
+            self.s_rev = 0.0
+        f = 1.0
+        if self.b and self.s_rev < BACKLASH_SPAN:
+            frac = (min(1.0, (BACKLASH_SPAN - self.s_rev) / abs(travel))
+                    if travel != 0.0 else 1.0)
+            f = 1.0 - self.b / BACKLASH_SPAN * frac
+        self.s_rev += abs(travel)
+        if sign != 0:
+            self.last_sign = sign
+        return f
+
+
 def simulate_motion(drive, n_steps, effects, path, rng_sched, rng_noise, rng_turn,
-                    noisy_rates=False):
+                    noisy_rates=False, steer_feedback=True, record=None):
     """Run the drive. Returns (enc counts (n+1, 2) int64, truth (n+1, 3) with theta
-    unwrapped)."""
+    unwrapped).
+
+    steer_feedback=False drops the 1 Hz correction (open-loop steering, for the self-check:
+    the encoder counts and the noise are then the same whatever the effects). A dict given
+    as ``record`` receives per-cycle arrays (n,): "travel" (the drive model's noise-free
+    rho before the effects), "wheel_R", "wheel_L" (its noise-free wheel travels, diff)."""
     schedule = speed_schedule(rng_sched, n_steps * DT + 1.0)
     sched_t = [p[0] for p in schedule]
 
@@ -363,6 +534,19 @@ def simulate_motion(drive, n_steps, effects, path, rng_sched, rng_noise, rng_tur
     region = effects.get("region_scale", None)
     drift_g = effects.get("radius_drift", [0.0])[0]
     turn_q = effects.get("turn_noise", [0.0])[0]
+    wb_R, wb_L = (SpanLoss(b) for b in effects.get("wheel_backlash", [0.0, 0.0]))
+    wss_R, wss_L = effects.get("wheel_speed_scale", [0.0, 0.0])
+    drift_cx, drift_cy = effects.get("ooc_world_drift", [0.0, 0.0])
+    hs_k, hs_th0 = effects.get("ooc_heading_scale", [0.0, 0.0])
+    ab_tc, ab_kR = effects.get("ooc_abrupt_scale", [math.inf, 0.0])
+    drag_k = effects.get("ooc_one_wheel_drag", [0.0])[0]
+    cubic_k = effects.get("ooc_turn_slip_cubic", [0.0])[0]
+    wheel_effects = ("wheel_backlash" in effects or wss_R or wss_L or ab_kR or drag_k)
+    if drive != "diff" and wheel_effects:
+        raise ValueError("per-wheel effects need the diff drive")
+    rec_travel = np.zeros(n_steps)
+    rec_R = np.zeros(n_steps)
+    rec_L = np.zeros(n_steps)
     r_wheel = WHEEL_RADIUS  # param wheel_radius_m for diff; 0.05 for sync (no param)
 
     # map bounding box for region_scale (of the map as written)
@@ -394,7 +578,7 @@ def simulate_motion(drive, n_steps, effects, path, rng_sched, rng_noise, rng_tur
     for k in range(n_steps):
         t = k * DT
         # --- low-rate correction from the TRUE pose -------------------------------
-        if k % CONTROL_EVERY == 0:
+        if k % CONTROL_EVERY == 0 and steer_feedback:
             s_path = path.project(x, y, s_path)
             px, py, pth = path.pose(s_path)
             e_y = -(x - px) * math.sin(pth) + (y - py) * math.cos(pth)
@@ -433,12 +617,33 @@ def simulate_motion(drive, n_steps, effects, path, rng_sched, rng_noise, rng_tur
             wr = mr + math.sqrt(tp["K_w"] * abs(er)) * n1
             wl = ml + math.sqrt(tp["K_w"] * abs(el)) * n2
             base = WHEELBASE * tp["delta_d"]
+            # the path statistics use the drive model's increment before any effect
+            rho_d = 0.5 * (mr + ml)
+            rec_R[k], rec_L[k] = mr, ml
+            if wheel_effects:
+                # Per-wheel effects, on the drive model's noise-free wheel travels
+                # R = rho + dtheta d/2, L = rho - dtheta d/2 (d = wheelbase * delta_d, so
+                # these are mr, ml exactly); each factor is applied to the noisy travel too.
+                # (--noisy-rates: evaluated on the noisy travels instead)
+                xR, xL = (wr, wl) if noisy_rates else (mr, ml)
+                gR = wb_R.factor(xR)
+                gL = wb_L.factor(xL)
+                if wss_R or wss_L:
+                    gR *= 1.0 + wss_R * abs(xR / DT)
+                    gL *= 1.0 + wss_L * abs(xL / DT)
+                if ab_kR and t >= ab_tc:
+                    gR *= 1.0 + ab_kR
+                if drag_k:
+                    gL *= 1.0 - drag_k * (xL / DT) ** 2
+                mr, wr = mr * gR, wr * gR
+                ml, wl = ml * gL, wl * gL
             rho_m, dth_m = 0.5 * (mr + ml), (mr - ml) / base
             enc_travel = 0.5 * (er + el)
             rho, dth = 0.5 * (wr + wl), (wr - wl) / base
         else:
             erho, eth = da / TICKS_PER_M, db / TICKS_PER_RAD
             rho_m = tp["delta_rho"] * erho
+            rho_d = rho_m
             enc_travel = erho
             dth_m = eth + tp["E_theta"] * erho
             rho = rho_m + math.sqrt(tp["K_rho"] * abs(erho)) * n1
@@ -446,12 +651,14 @@ def simulate_motion(drive, n_steps, effects, path, rng_sched, rng_noise, rng_tur
         side = side_m = 0.0
         if noisy_rates:                      # literal reading: rates from the noisy draw
             rho_m, dth_m = rho, dth
+            rho_d = rho
 
         # path statistics: values at the start of the cycle; a reversal resets s_rev
-        sign = (rho_m > 0.0) - (rho_m < 0.0)
+        travel = rho_d
+        rec_travel[k] = travel
+        sign = (travel > 0.0) - (travel < 0.0)
         if sign != 0 and last_sign != 0 and sign != last_sign:
             s_rev = 0.0
-        travel = rho_m
 
         # --- motion effects, in the catalogue's order ------------------------------
         # Each effect's factor or term is evaluated on the running noise-free increment
@@ -486,6 +693,17 @@ def simulate_motion(drive, n_steps, effects, path, rng_sched, rng_noise, rng_tur
         if turn_q:
             dth += math.sqrt(turn_q * abs(dth_m)) * turn_normals[k]
 
+        # --- out-of-catalogue robot-level forms ---------------------------------------
+        if hs_k:
+            f = 1.0 + hs_k * math.cos(th - hs_th0)
+            rho *= f
+            rho_m *= f
+        if cubic_k:
+            a_lat = (rho_m / DT) * (dth_m / DT)
+            add = cubic_k * a_lat ** 3 * rho_m
+            side += add
+            side_m += add
+
         # update the statistics with this cycle's drive-model travel
         s_abs += abs(travel)
         s_signed += travel
@@ -500,8 +718,13 @@ def simulate_motion(drive, n_steps, effects, path, rng_sched, rng_noise, rng_tur
         x += rho * c - side * s
         y += rho * s + side * c
         th += dth
+        if drift_cx or drift_cy:             # pushed in the world frame (tilted floor)
+            x += drift_cx * abs(travel)
+            y += drift_cy * abs(travel)
         truth[k + 1] = (x, y, th)
 
+    if record is not None:
+        record.update(travel=rec_travel, wheel_R=rec_R, wheel_L=rec_L)
     return enc, truth
 
 
@@ -522,9 +745,11 @@ def true_walls(effects):
     return w
 
 
-def cast_rays(ox, oy, ang, walls):
+def cast_rays(ox, oy, ang, walls, incidence=False):
     """Vectorised ray casting. ox, oy: (S,), ang: (S, B) world beam angles,
-    walls: (W, 4). Returns (S, B) ranges, inf where no wall is hit."""
+    walls: (W, 4). Returns (S, B) ranges, inf where no wall is hit; with incidence=True
+    also (S, B) |cos| of the angle between the beam and the hit wall's normal (nan where
+    no wall is hit)."""
     dx, dy = np.cos(ang)[..., None], np.sin(ang)[..., None]          # (S, B, 1)
     ax, ay = walls[:, 0], walls[:, 1]                                  # (W,)
     ex, ey = walls[:, 2] - ax, walls[:, 3] - ay
@@ -535,7 +760,15 @@ def cast_rays(ox, oy, ang, walls):
         r = (qx * ey - qy * ex) / den
         u = (qx * dy - qy * dx) / den
     hit = (np.abs(den) > 1e-12) & (r > 1e-9) & (u >= 0.0) & (u <= 1.0)
-    return np.where(hit, r, np.inf).min(axis=2)
+    r = np.where(hit, r, np.inf)
+    if not incidence:
+        return r.min(axis=2)
+    iw = r.argmin(axis=2)                                              # (S, B)
+    rng = np.take_along_axis(r, iw[..., None], axis=2)[..., 0]
+    length = np.hypot(ex, ey)
+    # |beam . unit normal| = |dx ey - dy ex| / length = |den| / length of the hit wall
+    cos_inc = np.abs(np.take_along_axis(den, iw[..., None], axis=2)[..., 0]) / length[iw]
+    return rng, np.where(np.isfinite(rng), cos_inc, np.nan)
 
 
 def simulate_scans(truth, n_steps, effects, rng_scan):
@@ -555,11 +788,24 @@ def simulate_scans(truth, n_steps, effects, rng_scan):
     c, s = np.cos(th), np.sin(th)
     ox = x + c * mx - s * my
     oy = y + s * mx + c * my
-    beams = myaw + ANGLE_MIN + ANGLE_INC * np.arange(N_BEAMS)
+    alpha = ANGLE_MIN + ANGLE_INC * np.arange(N_BEAMS)      # beam angles, laser frame
+    alpha = alpha * (1.0 + effects.get("ooc_beam_angle_scale", [0.0])[0])
+    beams = myaw + alpha
     ang = th[:, None] + beams[None, :]
 
-    r_true = cast_rays(ox, oy, ang, true_walls(effects))
-    r = r_true + effects.get("range_bias", [0.0])[0]
+    r_true, cos_inc = cast_rays(ox, oy, ang, true_walls(effects), incidence=True)
+    r = r_true
+    c_inc = effects.get("ooc_incidence_bias", [0.0])[0]
+    if c_inc:
+        # held at its 80 degree value beyond 80 degrees of incidence (1/cos would reach
+        # metres at grazing beams; those beams hit near corners and are gated anyway)
+        cos_c = np.maximum(cos_inc, INCIDENCE_COS_MIN)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            r = r + c_inc * (1.0 / cos_c - 1.0)
+    c_t = effects.get("ooc_range_time_drift", [0.0])[0]
+    if c_t:
+        r = r + c_t * t_scan[:, None]
+    r = r + effects.get("range_bias", [0.0])[0]
     r = r * (1.0 + effects.get("range_scale", [0.0])[0])
     r = r + RANGE_SIGMA * rng_scan.standard_normal(r.shape)
     r[~np.isfinite(r_true) | (r_true > RANGE_MAX) | (r <= 0.0) | (r > RANGE_MAX)] = np.nan
@@ -647,7 +893,13 @@ def main(argv=None):
     if args.list_effects:
         for name, (n, kind, desc) in EFFECTS.items():
             count = f"1..{len(WALLS)}" if n is None else str(n)
-            print(f"{name:20s} {kind:12s} {count:6s} {desc}")
+            extra = []
+            if name in DIFF_ONLY:
+                extra.append("diff only")
+            if name in TEST_SIZES:
+                extra.append("test size " + ",".join(repr(v) for v in TEST_SIZES[name]))
+            extra = f" [{'; '.join(extra)}]" if extra else ""
+            print(f"{name:22s} {kind:12s} {count:6s} {desc}{extra}")
         return 0
     if not args.out:
         ap.error("--out FILE is required")
@@ -656,6 +908,9 @@ def main(argv=None):
     if args.seed < 0:
         ap.error("--seed must be >= 0")
     effects = parse_effects(args.effect, ap)
+    if args.drive != "diff" and DIFF_ONLY & set(effects):
+        ap.error("--effect " + ", ".join(sorted(DIFF_ONLY & set(effects)))
+                 + ": acts on the two wheels separately, diff drive only")
 
     t0 = time.perf_counter()
     n_steps = int(round(args.minutes * 60.0 / DT))

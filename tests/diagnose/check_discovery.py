@@ -1,0 +1,385 @@
+#!/usr/bin/env python3
+"""Residual discovery of `odoerr diagnose` on effects the catalogue cannot express.
+
+  check_discovery.py ODOERR OUTDIR [--seeds 21,22] [--clean-seeds 21,...,30]
+                     [--pysim PATH] [--python PY] [--only NAME[,NAME...]] [--auto]
+
+Each out-of-catalogue case is a drive of the independent simulator (tools/pysim/odosim.py,
+``--effect ooc_...`` at the test size of its docstring) that hides a physically plausible
+effect NOT in the catalogue's form. For every case and seed the script runs
+`ODOERR diagnose DRIVE --json OUT` and checks:
+
+  * no catalogue effect of the WRONG KIND is named: no ranking row with `significant` true
+    and `kind` other than the form's kind ("motion" for the motion forms, "measurement"
+    for the beam forms; a "noise" effect named for a systematic motion form is wrong too:
+    it would send the user after noise where the model misses a systematic effect). A
+    catalogue effect of the right kind may be named (the nearest form explains part);
+  * `unexplained.significant` is true and `unexplained.features` holds at least one of the
+    form's expected (frame, component, feature) entries (CASES below; component None =
+    any component of that frame);
+  * ooc_abrupt_scale: a `change_points` entry whose [t_lo, t_hi] holds t_c or whose t is
+    within 10 s of it;
+  * with --auto, a second run with `--with auto`: `auto.steps` is not empty and the last
+    step's `paired.pose_err_m.change_z` (motion forms) or `paired.nll.change_z` (beam
+    forms) is <= -2.
+
+Clean drives (no effect, --clean-seeds, default 21-30) are one case: a drive is FLAGGED
+when an effect is named, `unexplained.significant` is true, `change_points` is not empty,
+or (with --auto) `auto.final_with` is not empty. The rule: at most ceil(5 % of the seeds)
+drives flagged, i.e. 1 of 10 (1 of 20). With 10 seeds a literal ">= 95 %" would allow no
+false alarm at all, which a detector with a true 5 % false-alarm rate fails 40 % of the
+time; allowing 1 of 10 fails it 9 % of the time at 5 %, and 0.4 % of the time at 1 %.
+A clean drive whose JSON lacks a key fails the case outright.
+
+A key missing from the JSON (e.g. a binary without residual discovery) is a FAIL line
+naming the key, not a traceback. Prints one line per case (per drive for the clean set,
+then its summary line) and finally exactly `N passed, M failed`; exits 0 only when none
+failed.
+"""
+import argparse
+import json
+import math
+import os
+import subprocess
+import sys
+import time
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+DEFAULT_PYSIM = os.path.normpath(os.path.join(HERE, "..", "..", "tools", "pysim", "odosim.py"))
+
+HEADING_FEATURES = {"cos_heading_ds", "sin_heading_ds"}
+
+# name -> values (odosim's test sizes), kind, acceptable (frame, component, {features}),
+# and for the abrupt form the time of the change.
+CASES = {
+    # tilted floor: pushed (cx, cy) per metre of |travel| in the world frame
+    "ooc_world_drift": dict(values=[0.012, -0.008], kind="motion",
+                            expect=[("world", None, {"abs_ds", "dt"})]),
+    # carpet pile: rho *= 1 + k cos(theta - theta0)
+    "ooc_heading_scale": dict(values=[0.03, 0.5], kind="motion",
+                              expect=[("robot", "along", HEADING_FEATURES),
+                                      ("wheel_R", None, HEADING_FEATURES),
+                                      ("wheel_L", None, HEADING_FEATURES)]),
+    # a tyre loses pressure at t_c: R *= 1 + kR from then on
+    "ooc_abrupt_scale": dict(values=[120.0, -0.02], kind="motion", change_at=120.0,
+                             expect=[("wheel_R", None, {"ds_R", "ds", "abs_ds", "t_ds", "s_ds"}),
+                                     ("robot", "heading", {"ds_R", "t_ds", "s_ds"})]),
+    # left wheel drag, quadratic in its speed: L *= 1 - k v_L^2
+    "ooc_one_wheel_drag": dict(values=[0.1], kind="motion",
+                               expect=[("wheel_L", None, {"ds_L_speed", "v2", "ds_L"}),
+                                       ("robot", "heading", {"ds_L_speed"})]),
+    # slip angle cubic in the centripetal acceleration: side += k (v w)^3 rho
+    "ooc_turn_slip_cubic": dict(values=[0.2], kind="motion",
+                                expect=[("robot", "cross", {"v_w", "w2", "v2", "dth"})]),
+    # spot smear on oblique walls: r += c (1/cos(inc) - 1)
+    "ooc_incidence_bias": dict(values=[0.015], kind="measurement",
+                               expect=[("beam", None, {"inv_cos_inc", "inc2", "abs_inc"})]),
+    # mirror speed error: the true beam angle is alpha (1 + s)
+    "ooc_beam_angle_scale": dict(values=[0.002], kind="measurement",
+                                 expect=[("beam", None, {"alpha_angle_sens"})]),
+    # laser warming up: r += c t
+    "ooc_range_time_drift": dict(values=[1e-4], kind="measurement",
+                                 expect=[("beam", None, {"t"})]),
+}
+CHANGE_TOL_S = 10.0
+AUTO_Z = -2.0
+CLEAN_FALSE_ALARM = 0.05
+
+
+class Missing(Exception):
+    """A key the contract promises is not in the JSON."""
+
+
+def need(obj, *keys):
+    """obj[k1][k2]...; raises Missing('k1.k2[0]...') naming the first key not there."""
+    cur, path = obj, ""
+    for k in keys:
+        path += "[%d]" % k if isinstance(k, int) else ("." if path else "") + str(k)
+        try:
+            cur = cur[k]
+        except (KeyError, IndexError, TypeError):
+            raise Missing(path)
+    return cur
+
+
+def fmt(v, spec=".3g"):
+    return "None" if v is None else format(v, spec) if isinstance(v, (int, float)) else str(v)
+
+
+def run(cmd):
+    """(ok, seconds, stderr tail)."""
+    t0 = time.perf_counter()
+    try:
+        r = subprocess.run(cmd, capture_output=True, text=True)
+    except OSError as e:
+        return False, 0.0, str(e)
+    tail = " | ".join(r.stderr.strip().splitlines()[-2:])
+    return r.returncode == 0, time.perf_counter() - t0, tail if r.returncode else ""
+
+
+def diagnose(args, log, out, extra=()):
+    """(json or None, seconds, error text)."""
+    ok, secs, err = run([args.odoerr, "diagnose", log, "--json", out, *extra])
+    if not ok:
+        return None, secs, "diagnose %s failed: %s" % (" ".join(extra) or "", err)
+    try:
+        with open(out) as f:
+            return json.load(f), secs, ""
+    except (OSError, ValueError) as e:
+        return None, secs, "diagnose wrote no readable JSON (%s)" % e
+
+
+def generate(args, log, seed, spec=None):
+    cmd = [args.python, args.pysim, "--drive", "diff", "--seed", str(seed), "--out", log]
+    if spec:
+        cmd += ["--effect", spec]
+    return run(cmd)
+
+
+def named_rows(j):
+    """[(effect, kind)] of the significant ranking rows."""
+    out = []
+    for i, row in enumerate(need(j, "ranking")):
+        if need(j, "ranking", i, "significant"):
+            out.append((need(j, "ranking", i, "effect"), need(j, "ranking", i, "kind")))
+    return out
+
+
+def feature_text(f):
+    if not isinstance(f, dict):
+        return repr(f)
+    return "%s/%s %s %s+-%s" % (f.get("frame"), f.get("component"), f.get("name"),
+                                fmt(f.get("coef")), fmt(f.get("sigma")))
+
+
+def matches(f, expect):
+    for frame, comp, names in expect:
+        if f.get("frame") == frame and (comp is None or f.get("component") == comp) \
+                and f.get("name") in names:
+            return True
+    return False
+
+
+def expect_text(expect):
+    return ", ".join("%s/%s:%s" % (fr, co or "*", "|".join(sorted(n))) for fr, co, n in expect)
+
+
+def check_auto(args, log, base, kind):
+    """(fails, info) of the --with auto run of an effect drive."""
+    fails, info = [], []
+    j, secs, err = diagnose(args, log, base + "_auto.json", ["--with", "auto"])
+    if j is None:
+        return [err], "auto: -"
+    key = "pose_err_m" if kind == "motion" else "nll"
+    try:
+        steps = need(j, "auto", "steps")
+        if not steps:
+            fails.append("auto.steps is empty")
+        else:
+            last = steps[-1]
+            try:
+                z = need(last, "paired", key, "change_z")
+            except Missing:             # tolerate the paired block one level down
+                z = need(last, "heldout", "paired", key, "change_z")
+            info.append("auto %d step(s) %s, last %s z %s" % (
+                len(steps), [s.get("with", s.get("effect")) if isinstance(s, dict) else s
+                             for s in steps], key, fmt(z, ".2f")))
+            if z is None or not z <= AUTO_Z:
+                fails.append("auto: last step's paired %s change_z %s > %g" % (key, fmt(z, ".2f"), AUTO_Z))
+    except Missing as e:
+        fails.append("diagnose --with auto JSON has no '%s'" % e)
+    info.append("auto run %.1f s" % secs)
+    return fails, "; ".join(info)
+
+
+def check_case(args, name, seed):
+    """Returns (passed, line)."""
+    case = CASES[name]
+    base = os.path.join(args.outdir, "%s_s%d" % (name, seed))
+    log = base + ".odolog"
+    spec = "%s=%s" % (name, ",".join(repr(v) for v in case["values"]))
+    ok, gen_s, err = generate(args, log, seed, spec)
+    if not ok:
+        return False, "%s seed %d: FAIL: odosim failed: %s" % (name, seed, err)
+    j, diag_s, err = diagnose(args, log, base + ".json")
+    if j is None:
+        return False, "%s seed %d: FAIL: %s" % (name, seed, err)
+
+    fails, info = [], []
+    # 1. no catalogue effect of the wrong kind is named
+    try:
+        named = named_rows(j)
+        wrong = ["%s (%s)" % (e, k) for e, k in named if k != case["kind"]]
+        info.append("named %s" % ([e for e, _ in named] or "none"))
+        if wrong:
+            fails.append("wrong kind named for a %s form: %s" % (case["kind"], ", ".join(wrong)))
+    except Missing as e:
+        fails.append("diagnose JSON has no '%s'" % e)
+    info.append("verdict %s" % j.get("verdict"))
+    # 2. the residuals are not explained, and by the right feature
+    try:
+        sig = need(j, "unexplained", "significant")
+        feats = need(j, "unexplained", "features")
+        frac = j["unexplained"].get("explained_fraction")
+        info.append("unexplained %s (explained fraction %s): %s" % (
+            sig, fmt(frac), "; ".join(feature_text(f) for f in feats[:4]) or "no feature"))
+        if sig is not True:
+            fails.append("unexplained.significant is %s" % sig)
+        if not any(isinstance(f, dict) and matches(f, case["expect"]) for f in feats):
+            fails.append("no expected feature (%s)" % expect_text(case["expect"]))
+    except Missing as e:
+        fails.append("diagnose JSON has no '%s' (residual discovery not in this binary?)" % e)
+    # 3. the abrupt change is found near its time
+    t_c = case.get("change_at")
+    if t_c is not None:
+        try:
+            cps = need(j, "change_points")
+            hit = [c for c in cps if isinstance(c, dict) and (
+                (c.get("t_lo") is not None and c.get("t_hi") is not None
+                 and c["t_lo"] <= t_c <= c["t_hi"])
+                or (c.get("t") is not None and abs(c["t"] - t_c) <= CHANGE_TOL_S))]
+            info.append("change points %s" % [(fmt(c.get("t"), ".1f"), fmt(c.get("t_lo"), ".1f"),
+                                               fmt(c.get("t_hi"), ".1f")) for c in cps])
+            if not hit:
+                fails.append("no change point at t_c = %g s (+-%g s)" % (t_c, CHANGE_TOL_S))
+        except Missing as e:
+            fails.append("diagnose JSON has no '%s' (change points not in this binary?)" % e)
+    # 4. --with auto picks something that lowers the held-out error
+    if args.auto:
+        f, text = check_auto(args, log, base, case["kind"])
+        fails += f
+        info.append(text)
+    status = "ok" if not fails else "FAIL: " + "; ".join(fails)
+    line = "%s seed %d: %s | %s | odosim %.2f s, diagnose %.1f s (its own: %s s)" % (
+        name, seed, status, "; ".join(info), gen_s, diag_s, fmt(j.get("seconds"), ".1f"))
+    return not fails, line
+
+
+def check_clean(args, seeds):
+    """Returns (passed, [lines])."""
+    lines, flagged, broken = [], [], []
+    for s in seeds:
+        base = os.path.join(args.outdir, "clean_s%d" % s)
+        log = base + ".odolog"
+        ok, gen_s, err = generate(args, log, s)
+        if not ok:
+            broken.append(s)
+            lines.append("  clean seed %d: FAIL: odosim failed: %s" % (s, err))
+            continue
+        j, diag_s, err = diagnose(args, log, base + ".json")
+        if j is None:
+            broken.append(s)
+            lines.append("  clean seed %d: FAIL: %s" % (s, err))
+            continue
+        why, missing, info = [], [], []
+        try:
+            named = named_rows(j)
+            if named:
+                why.append("named %s" % [e for e, _ in named])
+        except Missing as e:
+            missing.append(str(e))
+        try:
+            if need(j, "unexplained", "significant") is not False:
+                why.append("unexplained.significant %s (%s)" % (
+                    j["unexplained"]["significant"], "; ".join(
+                        feature_text(f) for f in j["unexplained"].get("features", [])[:3])))
+            info.append("explained fraction %s" % fmt(j["unexplained"].get("explained_fraction")))
+        except Missing as e:
+            missing.append(str(e))
+        try:
+            cps = need(j, "change_points")
+            if cps:
+                why.append("change points at %s s" % [fmt(c.get("t"), ".1f") for c in cps
+                                                      if isinstance(c, dict)])
+        except Missing as e:
+            missing.append(str(e))
+        if args.auto:
+            a, a_s, err = diagnose(args, log, base + "_auto.json", ["--with", "auto"])
+            if a is None:
+                missing.append(err)
+            else:
+                try:
+                    fw = need(a, "auto", "final_with")
+                    if fw:
+                        why.append("auto.final_with %s" % fw)
+                    info.append("auto %.1f s" % a_s)
+                except Missing as e:
+                    missing.append("--with auto: " + str(e))
+        parts = []
+        if missing:
+            broken.append(s)
+            parts.append("FAIL: diagnose JSON has no %s" % ", ".join("'%s'" % m for m in missing))
+        if why:
+            flagged.append(s)
+            parts.append("flagged: " + "; ".join(why))
+        status = " | ".join(parts) or "clean"
+        lines.append("  clean seed %d: %s | verdict %s, NIS %s%s | odosim %.2f s, diagnose %.1f s" % (
+            s, status, j.get("verdict"), fmt(j.get("tests", {}).get("nis_mean"), ".3f"),
+            ", " + ", ".join(info) if info else "", gen_s, diag_s))
+    allowed = math.ceil(CLEAN_FALSE_ALARM * len(seeds))
+    ok = not broken and len(flagged) <= allowed
+    lines.append("clean (%d seeds): %s | flagged %d (seeds %s), at most %d allowed%s" % (
+        len(seeds), "ok" if ok else "FAIL", len(flagged), flagged or "-", allowed,
+        "; broken seeds %s" % broken if broken else ""))
+    return ok, lines
+
+
+def seed_list(text):
+    out = []
+    for part in text.split(","):
+        if "-" in part.strip()[1:]:
+            a, b = part.split("-", 1)
+            out += list(range(int(a), int(b) + 1))
+        elif part.strip():
+            out.append(int(part))
+    return out
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("odoerr")
+    ap.add_argument("outdir")
+    ap.add_argument("--seeds", default="21,22", help="seeds of the out-of-catalogue cases")
+    ap.add_argument("--clean-seeds", default="21-30", help="seeds of the clean drives")
+    ap.add_argument("--pysim", default=DEFAULT_PYSIM)
+    ap.add_argument("--python", default=sys.executable or "/usr/bin/python3")
+    ap.add_argument("--only", default=None,
+                    help="comma-separated case names (%s, clean)" % ", ".join(CASES))
+    ap.add_argument("--auto", action="store_true",
+                    help="also run diagnose --with auto and check what it adds")
+    args = ap.parse_args()
+    names = list(CASES) + ["clean"]
+    if args.only:
+        names = [n.strip() for n in args.only.split(",") if n.strip()]
+        unknown = [n for n in names if n not in CASES and n != "clean"]
+        if unknown:
+            ap.error("--only: unknown case(s) %s; known: %s, clean" % (unknown, ", ".join(CASES)))
+    try:
+        seeds, clean_seeds = seed_list(args.seeds), seed_list(args.clean_seeds)
+    except ValueError:
+        ap.error("--seeds / --clean-seeds: comma-separated integers or ranges A-B")
+    os.makedirs(args.outdir, exist_ok=True)
+
+    passed = failed = 0
+    results = []
+    for name in names:
+        if name == "clean":
+            ok, lines = check_clean(args, clean_seeds)
+            for line in lines:
+                print(line, flush=True)
+            results.append({"case": "clean", "ok": ok, "lines": lines})
+            passed, failed = passed + ok, failed + (not ok)
+            continue
+        for s in seeds:
+            ok, line = check_case(args, name, s)
+            print(line, flush=True)
+            results.append({"case": name, "seed": s, "ok": ok, "line": line})
+            passed, failed = passed + ok, failed + (not ok)
+    with open(os.path.join(args.outdir, "summary_discovery.json"), "w") as f:
+        json.dump({"passed": passed, "failed": failed, "results": results}, f, indent=1)
+    print("%d passed, %d failed" % (passed, failed))
+    return 0 if failed == 0 and passed > 0 else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
