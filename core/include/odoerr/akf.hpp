@@ -125,12 +125,16 @@ class Akf {
 
     // P' = F P F^T + G Q G^T, with F = [f_pose; 0 I] and G = [g_pose; 0].
     // Rows/cols of the parameter block are unchanged except through f_pose.
-    const Eigen::Matrix<S, 3, N> fp = f_pose * p_;  // 3 x N
+    // 3 x N. Lazy (coefficient-wise) products here and below: Eigen's default switches to
+    // its blocked GEMM once rows + cols + depth >= 20, whose workspace may come from the
+    // heap (a float model with N >= 9 then failed the firmware's link-time heap trap); for
+    // smaller N Eigen already chose the lazy product.
+    const Eigen::Matrix<S, 3, N> fp = f_pose.lazyProduct(p_);
     StateMat pn = p_;
     pn.template topRows<3>() = fp;
     pn.template leftCols<3>() = fp.transpose();
     pn.template topLeftCorner<3, 3>() =
-        fp * f_pose.transpose() + g_pose * q.asDiagonal() * g_pose.transpose();
+        fp.lazyProduct(f_pose.transpose()) + g_pose * q.asDiagonal() * g_pose.transpose();
     if constexpr (Model::kHasNoiseEffects) {
       pn.template topLeftCorner<3, 3>() +=
           d_inc * model_.extraVariance(inc, x_, ctx_).asDiagonal() * d_inc.transpose();

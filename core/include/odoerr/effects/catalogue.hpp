@@ -3,6 +3,7 @@
 #pragma once
 
 #include <tuple>
+#include <type_traits>
 
 #include "odoerr/effects/measurement_effects.hpp"
 #include "odoerr/effects/motion_effects.hpp"
@@ -13,17 +14,46 @@ using Catalogue = std::tuple<TurnSlip, RotationSlip, SpeedScale, WheelEccentrici
                              RadiusDrift, TurnNoise, RangeBias, RangeScale, LaserMountXY, LaserMountYaw,
                              ScanLatency, WallOffset>;
 
+/// Effects whose priors are configured per instance (kConfiguredPrior, e.g. the feature
+/// effects of feature_effects.hpp): their coefficients' units depend on the configuration.
+template <typename E, typename = void>
+struct HasConfiguredPrior : std::false_type {};
+template <typename E>
+struct HasConfiguredPrior<E, std::void_t<decltype(E::kConfiguredPrior)>> : std::bool_constant<E::kConfiguredPrior> {};
+
 /// Prior sigma of parameter i of effect E (a single listed value applies to all).
 template <typename E>
 constexpr double priorSigma(int i) {
+  static_assert(!HasConfiguredPrior<E>::value, "this effect's priors are configured: call priorSigma(effect, i)");
   constexpr int n = sizeof(E::kPriorSigma) / sizeof(double);
   return E::kPriorSigma[i < n ? i : n - 1];
 }
 /// A magnitude of parameter i worth detecting.
 template <typename E>
 constexpr double referenceSize(int i) {
+  static_assert(!HasConfiguredPrior<E>::value, "this effect's priors are configured: call referenceSize(effect, i)");
   constexpr int n = sizeof(E::kReference) / sizeof(double);
   return E::kReference[i < n ? i : n - 1];
+}
+/// The same for an effect instance: the configured value where the effect has one (a
+/// feature effect's slot), else the type's.
+template <typename E>
+constexpr double priorSigma(const E& e, int i) {
+  if constexpr (HasConfiguredPrior<E>::value) {
+    return e.priorSigma(i);
+  } else {
+    (void)e;
+    return priorSigma<E>(i);
+  }
+}
+template <typename E>
+constexpr double referenceSize(const E& e, int i) {
+  if constexpr (HasConfiguredPrior<E>::value) {
+    return e.referenceSize(i);
+  } else {
+    (void)e;
+    return referenceSize<E>(i);
+  }
 }
 
 }  // namespace odoerr::effects

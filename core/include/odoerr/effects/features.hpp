@@ -104,19 +104,19 @@ enum class BeamFeature : std::uint8_t {
 constexpr int kBeamFeatureCount = static_cast<int>(BeamFeature::kCount);
 
 namespace feature_detail {
-constexpr const char* kMotionFeatureNames[kMotionFeatureCount] = {
+inline constexpr const char* kMotionFeatureNames[kMotionFeatureCount] = {
     "none",   "ds",   "abs_ds", "dth",           "abs_dth",        "ds_R", "ds_L", "ds_R_speed", "ds_L_speed",
     "v_w",    "v2",   "w2",     "cos_heading_ds", "sin_heading_ds", "x_ds", "y_ds", "s_ds",       "dt"};
-constexpr const char* kMotionFeatureUnits[kMotionFeatureCount] = {
+inline constexpr const char* kMotionFeatureUnits[kMotionFeatureCount] = {
     "1", "m", "m", "rad", "rad", "m", "m", "m^2/s", "m^2/s", "m*rad/s", "m^2/s", "rad^2/s", "m", "m", "m^2", "m^2",
     "m^2", "s"};
-constexpr const char* kMotionTargetNames[kMotionTargetCount] = {"along",   "cross",   "heading", "world_x",
+inline constexpr const char* kMotionTargetNames[kMotionTargetCount] = {"along",   "cross",   "heading", "world_x",
                                                                 "world_y", "wheel_R", "wheel_L"};
-constexpr const char* kMotionTargetUnits[kMotionTargetCount] = {"m", "m", "rad", "m", "m", "m", "m"};
-constexpr const char* kBeamFeatureNames[kBeamFeatureCount] = {
+inline constexpr const char* kMotionTargetUnits[kMotionTargetCount] = {"m", "m", "rad", "m", "m", "m", "m"};
+inline constexpr const char* kBeamFeatureNames[kBeamFeatureCount] = {
     "none",       "one",   "range",      "abs_inc", "inc2", "inv_cos_inc", "alpha",
     "alpha2",     "angle_sens", "alpha_angle_sens", "v", "w", "w_angle_sens"};
-constexpr const char* kBeamFeatureUnits[kBeamFeatureCount] = {"1",     "1",   "m", "rad", "rad^2", "1", "rad",
+inline constexpr const char* kBeamFeatureUnits[kBeamFeatureCount] = {"1",     "1",   "m", "rad", "rad^2", "1", "rad",
                                                               "rad^2", "m/rad", "m", "m/s", "rad/s", "m/s"};
 
 template <typename Enum, int Count>
