@@ -11,6 +11,7 @@
 #include "diagnose/engine.hpp"
 #include "diagnose/excitation.hpp"
 #include "diagnose/heldout.hpp"
+#include "diagnose/model_search.hpp"
 #include "diagnose/ranking.hpp"
 
 namespace odoerr::sim {
@@ -33,19 +34,14 @@ bool diagnoseDrive(const Odolog& log, const DiagnoseOptions& opt, json* out, std
   if (!en.prepare(error)) return false;
   const auto& fx = en.effects();
   const int ne = static_cast<int>(fx.size());
-  std::vector<int> with_idx;
-  for (const auto& w : opt.with) {
-    int found = -1;
-    for (int e = 0; e < ne; ++e)
-      if (fx[e].name == w) found = e;
-    if (found < 0) {
-      std::string names;
-      for (const auto& f : fx) names += (names.empty() ? "" : ", ") + f.name;
-      *error = "--with: unknown effect '" + w + "' (the catalogue: " + names + ")";
-      return false;
-    }
-    with_idx.push_back(found);
+  WithSpec with;
+  if (!parseWith(opt.with, fx, En::kSync, &with, error)) return false;
+  if (with.automatic && (!with.catalogue.empty() || !with.features.empty())) {
+    *error = "--with auto chooses the effects itself: give it alone";
+    return false;
   }
+  const std::vector<int>& with_idx = with.catalogue;
+  const bool held_out = !with.catalogue.empty() || !with.features.empty();
 
   // 1. The model as the user has it: drive parameters and K estimated (the OF free).
   //    And the joint run: every augmentable candidate free, the OF free. Its K cannot have
@@ -85,7 +81,7 @@ bool diagnoseDrive(const Odolog& log, const DiagnoseOptions& opt, json* out, std
   //    then with each named effect in the model, and with all of them: how much of the
   //    misfit each explains (an effect that explains little of it is not named: a wrong
   //    kind absorbs a part of a misfit, never most of it), and what is left.
-  Discovery<DriveT> disc(en, opt);
+  Discovery<En> disc(en, opt);
   Scales scales;
   const Residuals res_base = disc.analyse(base, &scales);
   const double misfit = structuredMisfit(res_base.motion_sel) + structuredMisfit(res_base.beam_sel);
@@ -114,6 +110,27 @@ bool diagnoseDrive(const Odolog& log, const DiagnoseOptions& opt, json* out, std
         rank.unname(named0[i], why);
       }
     }
+    // The kind: an effect whose evidence lies only in the other kind's residuals is not
+    // named when an effect of that kind explains them as well (a laser offset mimics a
+    // slip in turns; a slip can absorb part of a beam-angle error).
+    auto share = [](const json& x, const char* k) { return x[k].is_number() ? x[k].template get<double>() : -1.0; };
+    for (std::size_t i = 0; i < named0.size(); ++i) {
+      const EffectKind ki = fx[named0[i]].kind;
+      if (ki == EffectKind::kNoise) continue;
+      const char* own = ki == EffectKind::kMotion ? "motion" : "beam";
+      const char* other = ki == EffectKind::kMotion ? "beam" : "motion";
+      if (share(explains[i], own) >= kMinExplained || share(explains[i], other) < kMinExplained) continue;
+      for (std::size_t k = 0; k < named0.size(); ++k) {
+        const EffectKind kk = fx[named0[k]].kind;
+        if (k == i || kk == ki || kk == EffectKind::kNoise) continue;
+        if (share(explains[k], other) >= share(explains[i], other)) {
+          const std::string why = std::string("its evidence is in the ") + other + " residuals, which " +
+                                  fx[named0[k]].name + ", an effect of that kind, explains as well";
+          rank.unname(named0[i], why);
+          break;
+        }
+      }
+    }
   }
   const std::vector<int> named = rank.named();
   Residuals res_final;
@@ -124,7 +141,7 @@ bool diagnoseDrive(const Odolog& log, const DiagnoseOptions& opt, json* out, std
     res_final = disc.analyse(en.run(s), &scales);
   }
   const json unexplained = unexplainedJson(res_base, named.empty() ? res_base : res_final, !named.empty());
-  const json change_points = disc.changePoints(res_base);
+  const json change_points = disc.changePoints(res_base, named.empty() ? nullptr : &res_final);
   json ranking = rank.toJson(joint);
   for (json& row : ranking)
     for (std::size_t i = 0; i < named0.size(); ++i)
@@ -166,12 +183,39 @@ bool diagnoseDrive(const Odolog& log, const DiagnoseOptions& opt, json* out, std
   const bool consistent = !rank.anySignificant() && st.consistent && !unexplained["significant"].template get<bool>() &&
                           change_points.empty();
 
-  // 5. Held-out comparison (--with).
+  // 5. Held-out comparison (--with): catalogue effects on the catalogue's model; with
+  //    feature terms, on the model with the feature effects, their slots configured.
   HeldoutResult held;
   json heldout = nullptr;
-  if (!with_idx.empty()) {
-    held = compareHeldout(en, {}, with_idx, opt.with, opt);
+  if (held_out && with.features.empty()) {
+    held = compareHeldout(en, {}, with_idx, with.names, opt);
     heldout = held.json;
+  } else if (held_out) {
+    using EnF = Engine<DriveT, Featured>;
+    EnF before(log, opt), after(log, opt, slotsFor(with.features, res_base));
+    if (!before.prepare(error) || !after.prepare(error)) return false;
+    std::vector<int> added = with_idx;
+    if (!after.slots().motion.empty()) added.push_back(ne);
+    if (!after.slots().beam.empty()) added.push_back(ne + 1);
+    held = compareHeldout(before, {}, after, added, with.names, opt);
+    heldout = held.json;
+  }
+  // 6. --with auto: forward selection over the named effects and the discovered features.
+  json automatic = nullptr;
+  if (with.automatic) {
+    std::vector<std::string> final_with;
+    automatic = autoSearch(en, rank, res_base, scales, opt, &final_with);
+  }
+  if (!opt.suggest_dir.empty()) {
+    const Residuals& r = named.empty() || !unexplained["significant"].template get<bool>() ? res_base : res_final;
+    std::vector<Term> terms;
+    std::vector<double> coef;
+    for (const auto& [sel, tl] : {std::pair{&r.motion_sel, &r.motion_terms}, {&r.beam_sel, &r.beam_terms}})
+      for (std::size_t k = 0; k < sel->terms.size() && k < sel->coef.size(); ++k) {
+        terms.push_back((*tl)[static_cast<std::size_t>(sel->terms[k])]);
+        coef.push_back(sel->coef[k]);
+      }
+    if (!writeSuggestion(opt.suggest_dir, terms, coef, error)) return false;
   }
 
   json walls = json::array();
@@ -186,6 +230,7 @@ bool diagnoseDrive(const Odolog& log, const DiagnoseOptions& opt, json* out, std
   j["heldout"] = heldout;
   j["unexplained"] = unexplained;
   j["change_points"] = change_points;
+  if (with.automatic) j["auto"] = automatic;
   j["excitation"] = excitation;
   j["bins"] = st.bins;
   j["cusum"] = st.cusum;
@@ -204,7 +249,10 @@ bool diagnoseDrive(const Odolog& log, const DiagnoseOptions& opt, json* out, std
 
   if (!opt.out_dir.empty()) {
     if (!writeDiagnoseCsv(opt.out_dir, base.scans, base.beams, base.traj, error)) return false;
-    if (!with_idx.empty() && !writeHeldoutCsv(opt.out_dir, held, error)) return false;
+    if (held_out && !writeHeldoutCsv(opt.out_dir, held, error)) return false;
+    // the residuals of what is left, or of the baseline when the named effects leave nothing
+    const bool left = !named.empty() && unexplained["significant"].template get<bool>();
+    if (!writeDiscoveryCsv(opt.out_dir, left ? res_final : res_base, error)) return false;
   }
   return true;
 }

@@ -3,7 +3,7 @@
 //   odoerr sim   --drive sync|diff --seed 7 --out FILE    one simulated drive as odolog v1
 //                [--effect NAME=V,...]... [--minutes M]     an exciting drive with effects injected
 //   odoerr replay LOG --out DIR                            the estimator over a recorded drive
-//   odoerr diagnose LOG --json OUT [--with E1,E2] [--out DIR]   model against measurements
+//   odoerr diagnose LOG --json OUT [--with E1,E2|auto] [--out DIR] [--suggest DIR]   model against measurements
 //   odoerr report LOG --out DIR [--with E1,E2]             diagnose + a self-contained HTML page
 #include <CLI/CLI.hpp>
 #include <cerrno>
@@ -386,9 +386,13 @@ int main(int argc, char** argv) {
   DiagnoseOptions dg;
   diag->add_option("LOG", dg_log, "odolog v1 file")->required();
   diag->add_option("--json", dg_json, "result file (the contract in docs/diagnostics.md)")->required();
-  diag->add_option("--with", dg.with, "effects to add and compare on held-out data (comma separated)")
+  diag->add_option("--with", dg.with,
+                   "effects to add and compare on held-out data (comma separated): catalogue names, "
+                   "feature:NAME@TARGET or feature:BEAM_FEATURE (the feature effects), or auto")
       ->delimiter(',');
   diag->add_option("--out", dg.out_dir, "also write scans.csv, beams.csv, trajectory.csv (and heldout_*.csv) here");
+  diag->add_option("--suggest", dg.suggest_dir,
+                   "write DIR/discovered_effect.hpp, a C++ effect skeleton of the features discovery found");
   diag->add_option("--threads", dg.threads, "worker threads")->check(CLI::Range(1, 64));
   diag->add_option("--folds", dg.folds, "held-out comparison: cross-validation folds")->check(CLI::Range(1, 50));
   diag->add_option("--block-s", dg.block_s, "held-out comparison: block length (s)")->check(CLI::Range(0.5, 600.0));

@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
 #include <limits>
 
 namespace odoerr::sim::diag {
@@ -16,7 +15,8 @@ using effects::MotionFeature;
 using effects::MotionTarget;
 
 constexpr double kSegmentS = 0.5;     // a motion segment spans at least this (s)
-constexpr double kClusterS = 10.0;    // rows within this much time may correlate (robust sigma)
+constexpr double kSmoothS = 0.25;     // measurement poses this close to a boundary are averaged into it
+constexpr double kClusterS = 5.0;     // rows within this much time may correlate (robust sigma; change points at their boundaries)
 constexpr double kCvBlockS = 2.0;     // cross-validation blocks, as the held-out comparison's
 constexpr double kMaxSegmentM = 0.5;  // a segment residual beyond this is a lost filter, not a residual
 constexpr double kMaxBeamZ = 5.0;     // a beam residual beyond this many sigmas is an outlier
@@ -42,14 +42,17 @@ std::string Term::name() const {
     case Kind::kMotion: return effects::motionFeatureName(mf);
     case Kind::kReversal: return mt == MotionTarget::kAlong ? "rev" : (wheel == 0 ? "rev_R" : "rev_L");
     case Kind::kBeam: return effects::beamFeatureName(bf);
+    case Kind::kTime: return "t";
   }
   return "?";
 }
 
-std::string Term::target() const { return kind == Kind::kBeam ? "range" : effects::motionTargetName(mt); }
+std::string Term::target() const {
+  return kind == Kind::kBeam || kind == Kind::kTime ? "range" : effects::motionTargetName(mt);
+}
 
 std::string Term::frame() const {
-  if (kind == Kind::kBeam) return "beam";
+  if (kind == Kind::kBeam || kind == Kind::kTime) return "beam";
   switch (mt) {
     case MotionTarget::kWorldX:
     case MotionTarget::kWorldY: return "world";
@@ -61,6 +64,8 @@ std::string Term::frame() const {
 
 std::string Term::words(double c, double sigma) const {
   const std::string pm = fmt(" (± %.2g)", sigma);
+  if (kind == Kind::kTime)
+    return fmt("the ranges drift by %.2f mm per minute of the drive (a laser that warms up)", 6e4 * c) + pm;
   if (kind == Kind::kBeam) {
     switch (bf) {
       case BeamFeature::kOne: return fmt("every range reads %.1f mm too long (a range bias)", 1e3 * c) + pm;
@@ -134,6 +139,49 @@ std::string Term::words(double c, double sigma) const {
          effects::motionFeatureUnit(mf) + ")" + pm;
 }
 
+bool writeDiscoveryCsv(const std::string& dir, const Residuals& r, std::string* error) {
+  auto one = [&](const char* name, const Design& d, const Selection& sel, const std::vector<Term>& terms, int every) {
+    const std::string path = dir + "/" + name;
+    FILE* f = std::fopen(path.c_str(), "w");
+    if (f == nullptr) {
+      *error = "cannot write '" + path + "'";
+      return false;
+    }
+    std::fprintf(f, "t,row,y,fit");
+    for (int j : sel.terms) {
+      const Term& t = terms[static_cast<std::size_t>(j)];
+      std::fprintf(f, ",%s/%s/%s,partial_%s/%s/%s", t.frame().c_str(), t.target().c_str(), t.name().c_str(),
+                   t.frame().c_str(), t.target().c_str(), t.name().c_str());
+    }
+    std::fprintf(f, "\n");
+    for (Eigen::Index i = 0; i < d.x.rows(); i += every) {
+      double fit = 0;
+      for (std::size_t k = 0; k < sel.terms.size() && k < sel.coef.size(); ++k) fit += sel.coef[k] * d.x(i, sel.terms[k]);
+      for (int k = 0; k < d.n_nuisance && k < static_cast<int>(sel.nuisance.size()); ++k) fit += sel.nuisance[static_cast<std::size_t>(k)] * d.x(i, k);
+      std::fprintf(f, "%.3f,%ld,%.5g,%.5g", d.t[i], static_cast<long>(i), d.y[i], fit);
+      for (std::size_t k = 0; k < sel.terms.size() && k < sel.coef.size(); ++k) {
+        const double col = d.x(i, sel.terms[k]);
+        std::fprintf(f, ",%.5g,%.5g", col, d.y[i] - (fit - sel.coef[k] * col));
+      }
+      std::fprintf(f, "\n");
+    }
+    const bool ok = std::ferror(f) == 0;
+    std::fclose(f);
+    if (!ok) *error = "cannot write '" + path + "'";
+    return ok;
+  };
+  return one("discovery_motion.csv", r.motion, r.motion_sel, r.motion_terms, 1) &&
+         one("discovery_beam.csv", r.beam, r.beam_sel, r.beam_terms, 8);
+}
+
+std::string withToken(const Term& t) {
+  switch (t.kind) {
+    case Term::Kind::kMotion: return "feature:" + t.name() + "@" + t.target();
+    case Term::Kind::kBeam: return "feature:" + t.name();
+    default: return "";
+  }
+}
+
 double structuredMisfit(const Selection& s) { return std::max(0.0, s.sse_cv_nuisance - s.sse_cv); }
 
 namespace {
@@ -153,7 +201,8 @@ json featuresOf(const Residuals& r) {
     for (std::size_t k = 0; k < s.terms.size() && k < s.coef.size(); ++k) {
       const Term& t = terms[static_cast<std::size_t>(s.terms[k])];
       f.push_back({{"name", t.name()}, {"frame", t.frame()}, {"component", t.target()}, {"coef", s.coef[k]},
-                   {"sigma", s.sigma[k]}, {"words", t.words(s.coef[k], s.sigma[k])}});
+                   {"sigma", s.sigma[k]}, {"words", t.words(s.coef[k], s.sigma[k])},
+                   {"with", withToken(t).empty() ? json(nullptr) : json(withToken(t))}});
     }
   };
   add(r.motion_sel, r.motion_terms);
@@ -202,8 +251,135 @@ json unexplainedJson(const Residuals& base, const Residuals& final_, bool named)
   return j;
 }
 
-template <template <typename> class DriveT>
-Residuals Discovery<DriveT>::analyse(const RunOut& run, Scales* scales) const {
+// Where the measurement alone puts the robot at each fused measurement: a pose fix is
+// that pose; a scan, the pose that best fits its beams by Gauss-Newton from the filter's
+// posterior (ray casts for the geometry; the residuals at the posterior carry the model's
+// measurement effects, held constant over the small step). The filter's own posterior
+// lags behind an effect it lacks (odometry and laser are weighted alike over ~1 s), which
+// hid half of a turn slip; the measurement's pose does not.
+template <typename En>
+std::vector<LaserPose> Discovery<En>::laserPoses(const RunOut& run) const {
+  std::vector<LaserPose> out(run.post.size());
+  const auto& ev = en_.events();
+  const auto& log = en_.log();
+  for (std::size_t i = 0; i < run.post.size(); ++i) {
+    const PostPose& q = run.post[i];
+    const Event& e = ev[static_cast<std::size_t>(q.event)];
+    out[i] = {q.t, q.x, q.y, q.th, false};
+    if (e.pose >= 0) {
+      const OdologPose& f = log.poses[static_cast<std::size_t>(e.pose)];
+      out[i] = {q.t, f.x, f.y, f.theta, true};
+    }
+  }
+  const auto& laser = en_.laser();
+  const auto& map = en_.map();
+  const double sigma = std::max(1e-6, double(laser.config().sigma));
+  auto cast = [&](double x, double y, double th, int b) {
+    const auto& cfg = laser.config();
+    const double c = std::cos(th), sn = std::sin(th);
+    const double lx = x + c * cfg.mount_x - sn * cfg.mount_y, ly = y + sn * cfg.mount_x + c * cfg.mount_y;
+    const double ux = c * laser.dirC(b) - sn * laser.dirS(b), uy = sn * laser.dirC(b) + c * laser.dirS(b);
+    const auto hit = map.castDir(lx, ly, ux, uy);
+    return hit.hit ? hit.range : std::numeric_limits<double>::quiet_NaN();
+  };
+  std::size_t k = 0;
+  while (k < run.post_beams.size()) {
+    const int pi = run.post_beams[k].post;
+    std::size_t end = k;
+    while (end < run.post_beams.size() && run.post_beams[end].post == pi) ++end;
+    const PostPose& q = run.post[static_cast<std::size_t>(pi)];
+    double x = q.x, y = q.y, th = q.th;
+    bool ok = false;
+    for (int it = 0; it < 3; ++it) {
+      Eigen::Matrix3d a = Eigen::Matrix3d::Zero();
+      Eigen::Vector3d g = Eigen::Vector3d::Zero();
+      int used = 0;
+      for (std::size_t j = k; j < end; ++j) {
+        const PostBeam& b = run.post_beams[j];
+        const double r0 = cast(q.x, q.y, q.th, b.beam), r = cast(x, y, th, b.beam);
+        const double nu = b.nu - (r - r0);  // the residual at (x, y, th)
+        if (!std::isfinite(nu) || std::abs(nu) > 3 * sigma) continue;
+        constexpr double h = 1e-4;
+        const Eigen::Vector3d jac((cast(x + h, y, th, b.beam) - r) / h, (cast(x, y + h, th, b.beam) - r) / h,
+                                  (cast(x, y, th + h, b.beam) - r) / h);
+        if (!jac.allFinite() || jac.norm() > 1e3) continue;  // a corner between two walls
+        a += jac * jac.transpose();
+        g += jac * nu;
+        ++used;
+      }
+      const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(a);
+      // enough beams, and every direction of the pose seen (not a corridor)
+      if (used < 8 || es.eigenvalues().minCoeff() < 1e-3 * std::max(1.0, es.eigenvalues().maxCoeff()) ||
+          es.eigenvalues().minCoeff() < 1.0) {
+        ok = false;
+        break;
+      }
+      const Eigen::Vector3d d = a.ldlt().solve(g);
+      x += d[0];
+      y += d[1];
+      th += d[2];
+      ok = d.allFinite();
+      if (!ok || d.head<2>().norm() < 1e-5) break;
+    }
+    if (ok && std::hypot(x - q.x, y - q.y) < 0.2) out[static_cast<std::size_t>(pi)] = {q.t, x, y, th, true};
+    k = end;
+  }
+  return out;
+}
+
+// A boundary's pose: the measurement poses within kSmoothS of it, each carried to the
+// boundary's time along the model's odometry, averaged. A scan's pose alone is noisy
+// (about 7 mm with 36 beams at 3 cm); five of them around the boundary cut that by about
+// two, and the odometry's own error cancels to first order across a symmetric window.
+template <typename En>
+std::vector<LaserPose> Discovery<En>::smoothed(const std::vector<LaserPose>& lp, const RunOut& run,
+                                               const typename En::M& model, const typename En::M::StateVec& x) const {
+  using Drive = typename En::Drive;
+  const auto& ev = en_.events();
+  const auto& post = run.post;
+  if (post.empty()) return lp;
+  // the odometry chain: the pose after every event, from an arbitrary start
+  std::vector<Pose<double>> chain(ev.size());
+  MotionContext<double> ctx;
+  Pose<double> o{post.front().x, post.front().y, post.front().th};
+  const typename En::M::NoiseVec nu0 = En::M::NoiseVec::Zero();
+  for (std::size_t k = 0; k < ev.size(); ++k) {
+    const typename Drive::Input u{ev[k].a, ev[k].b};
+    ctx.dt = ev[k].dt;
+    ctx.x = o.x;
+    ctx.y = o.y;
+    ctx.setHeading(o.theta);
+    double drive_rho = 0;
+    const Increment<double> inc = model.increment(u, x, nu0, ctx, nullptr, nullptr, &drive_rho);
+    o = applyIncrement(o, inc);
+    chain[k] = o;
+    ctx.advance(drive_rho, Drive::encoderTravel(u));
+  }
+  std::vector<LaserPose> out = lp;
+  for (std::size_t i = 0; i < post.size(); ++i) {
+    if (!lp[i].ok) continue;
+    const Pose<double>& oi = chain[static_cast<std::size_t>(post[i].event)];
+    double sx = 0, sy = 0, sc = 0, ss = 0;
+    int n = 0;
+    for (std::size_t j = i >= 4 ? i - 4 : 0; j < post.size() && j <= i + 4; ++j) {
+      if (!lp[j].ok || std::abs(post[j].t - post[i].t) > kSmoothS) continue;
+      // carry measurement j to event i: its pose composed with the chain's j -> i motion
+      const Pose<double>& oj = chain[static_cast<std::size_t>(post[j].event)];
+      const double dth = lp[j].th - oj.theta, c = std::cos(dth), sn = std::sin(dth);
+      const double dx = oi.x - oj.x, dy = oi.y - oj.y;
+      sx += lp[j].x + c * dx - sn * dy;
+      sy += lp[j].y + sn * dx + c * dy;
+      sc += std::cos(oi.theta + dth);
+      ss += std::sin(oi.theta + dth);
+      ++n;
+    }
+    if (n > 0) out[i] = {lp[i].t, sx / n, sy / n, std::atan2(ss, sc), true};
+  }
+  return out;
+}
+
+template <typename En>
+Residuals Discovery<En>::analyse(const RunOut& run, Scales* scales) const {
   using M = typename En::M;
   using Drive = typename En::Drive;
   using S = double;
@@ -273,9 +449,10 @@ Residuals Discovery<DriveT>::analyse(const RunOut& run, Scales* scales) const {
   const auto& ev = en_.events();
   const auto& post = run.post;
   const double t0 = ev.empty() ? 0.0 : ev.front().t;
+  const std::vector<LaserPose> lp = smoothed(laserPoses(run), run, model, x);
   std::vector<int> bounds;
   for (std::size_t i = 0; i < post.size(); ++i) {
-    if (post[i].t - t0 < opt_.warmup_s) continue;
+    if (post[i].t - t0 < opt_.warmup_s || !lp[i].ok) continue;
     if (bounds.empty() || post[i].t - post[static_cast<std::size_t>(bounds.back())].t >= kSegmentS)
       bounds.push_back(static_cast<int>(i));
   }
@@ -341,7 +518,7 @@ Residuals Discovery<DriveT>::analyse(const RunOut& run, Scales* scales) const {
     ctx.advance(drive_rho, Drive::encoderTravel(u));
     // A boundary: close the open segment, open the next.
     if (next_bound < bounds.size() && post[static_cast<std::size_t>(bounds[next_bound])].event == static_cast<int>(k)) {
-      const PostPose& q = post[static_cast<std::size_t>(bounds[next_bound])];
+      const LaserPose& q = lp[static_cast<std::size_t>(bounds[next_bound])];
       if (in_seg) {
         Seg sg;
         sg.t = q.t;
@@ -355,7 +532,7 @@ Residuals Discovery<DriveT>::analyse(const RunOut& run, Scales* scales) const {
         }
         if (sg.r.template head<2>().norm() < kMaxSegmentM) segs.push_back(sg);
       }
-      pp = Pose<S>{q.x, q.y, q.th};
+      pp = Pose<S>{q.x, q.y, q.th};  // the measurement's own pose: no filter lag
       seg_start = q.t;
       acc.setZero();
       th_acc.setZero();
@@ -399,6 +576,7 @@ Residuals Discovery<DriveT>::analyse(const RunOut& run, Scales* scales) const {
   std::vector<Term>& bterms = out.beam_terms;
   for (int f = 1; f < effects::kBeamFeatureCount; ++f)
     bterms.push_back({Term::Kind::kBeam, MotionFeature::kNone, MotionTarget::kAlong, static_cast<BeamFeature>(f)});
+  bterms.push_back({Term::Kind::kTime});  // the time since the log's start: the host knows it, the core does not
   const int nb = static_cast<int>(bterms.size());
   std::vector<double> nus;
   for (const PostBeam& b : run.post_beams) nus.push_back(b.nu);
@@ -420,7 +598,10 @@ Residuals Discovery<DriveT>::analyse(const RunOut& run, Scales* scales) const {
     const Eigen::Index r = static_cast<Eigen::Index>(i);
     const PostPose& q = post[static_cast<std::size_t>(kept[i].first->post)];
     db.y[r] = kept[i].first->nu / own.beam;
-    for (int j = 0; j < nb; ++j) db.x(r, j) = effects::beamFeature(bterms[static_cast<std::size_t>(j)].bf, kept[i].second) / own.beam;
+    for (int j = 0; j < nb; ++j) {
+      const Term& tm = bterms[static_cast<std::size_t>(j)];
+      db.x(r, j) = (tm.kind == Term::Kind::kTime ? q.t - t0 : effects::beamFeature(tm.bf, kept[i].second)) / own.beam;
+    }
     db.t[r] = q.t;
     db.fold.push_back(static_cast<int>((q.t - t0) / kCvBlockS) % db.folds);
     db.cluster.push_back(static_cast<int>((q.t - t0) / kClusterS));
@@ -434,15 +615,18 @@ Residuals Discovery<DriveT>::analyse(const RunOut& run, Scales* scales) const {
   return out;
 }
 
-template <template <typename> class DriveT>
-json Discovery<DriveT>::changePoints(const Residuals& r) const {
+template <typename En>
+json Discovery<En>::changePoints(const Residuals& r, const Residuals* final_) const {
   json cps = json::array();
-  if (r.segments < 40) return cps;
-  Design d = r.motion;
-  d.x = d.x.leftCols(d.n_nuisance).eval();
-  const ChangePoint cp = scanChange(d);
-  if (std::getenv("ODOERR_DEBUG_CP")) std::fprintf(stderr, "cp stat %g thr %g t %g [%g %g]\n", cp.stat, cp.threshold, cp.t, cp.t_lo, cp.t_hi);
+  auto scan = [](const Residuals& x) {
+    if (x.segments < 40) return ChangePoint{};
+    Design d = x.motion;
+    d.x = d.x.leftCols(d.n_nuisance).eval();
+    return scanChange(d);
+  };
+  const ChangePoint cp = scan(r);
   if (!cp.found) return cps;
+  const Design& d = r.motion;
   std::string what = "the drive parameters change:";
   for (int i = 0; i < d.n_nuisance; ++i) {
     const Term& t = r.motion_terms[static_cast<std::size_t>(i)];
@@ -455,11 +639,14 @@ json Discovery<DriveT>::changePoints(const Residuals& r) const {
     what += (i ? "," : "") + who + fmt(" %+.2f %%", 1e2 * delta);
   }
   cps.push_back({{"t", cp.t}, {"t_lo", cp.t_lo}, {"t_hi", cp.t_hi}, {"what", what},
-                 {"statistic", cp.stat}, {"critical_1pct", cp.threshold}, {"residual", "motion"}});
+                 {"statistic", cp.stat}, {"critical_0.1pct", cp.threshold}, {"p_value", cp.p_value}, {"residual", "motion"},
+                 {"remains_with_named", final_ == nullptr ? json(nullptr) : json(scan(*final_).found)}});
   return cps;
 }
 
-template class Discovery<SyncDrive>;
-template class Discovery<DiffDrive>;
+template class Discovery<Engine<SyncDrive>>;
+template class Discovery<Engine<DiffDrive>>;
+template class Discovery<Engine<SyncDrive, Featured>>;
+template class Discovery<Engine<DiffDrive, Featured>>;
 
 }  // namespace odoerr::sim::diag

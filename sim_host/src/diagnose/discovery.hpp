@@ -31,7 +31,7 @@ namespace odoerr::sim::diag {
 
 /// One candidate term of the library.
 struct Term {
-  enum class Kind { kMotion, kReversal, kBeam } kind;
+  enum class Kind { kMotion, kReversal, kBeam, kTime } kind;  ///< kReversal, kTime: host-only terms
   effects::MotionFeature mf = effects::MotionFeature::kNone;
   effects::MotionTarget mt = effects::MotionTarget::kAlong;
   effects::BeamFeature bf = effects::BeamFeature::kNone;
@@ -42,6 +42,10 @@ struct Term {
   /// The finding in plain physical words, e.g. "the right wheel travels 2.1 % more per m/s".
   std::string words(double coef, double sigma) const;
 };
+
+/// The `--with` token of a term ("feature:ds_R_speed@wheel_R"); "" when the core's
+/// feature effects cannot carry it (a wheel's reversals, the time: host-only terms).
+std::string withToken(const Term& t);
 
 /// The residual designs of one run and what the selection found in them.
 struct Residuals {
@@ -60,10 +64,15 @@ struct Scales {
   double beam = 0;
 };
 
-template <template <typename> class DriveT>
+/// The pose a fused measurement alone gives (see Discovery::laserPoses).
+struct LaserPose {
+  double t, x, y, th;
+  bool ok;
+};
+
+template <typename En>
 class Discovery {
  public:
-  using En = Engine<DriveT>;
   using RunOut = typename En::RunOut;
 
   Discovery(const En& en, const DiagnoseOptions& opt) : en_(en), opt_(opt) {}
@@ -72,13 +81,24 @@ class Discovery {
   /// null, the run's own robust scales are used and written there), and the selection.
   Residuals analyse(const RunOut& run, Scales* scales) const;
 
-  /// A scan for one abrupt change of the drive parameters over the motion residuals.
-  nlohmann::ordered_json changePoints(const Residuals& r) const;
+  /// A scan for one abrupt change of the drive parameters over the motion residuals of
+  /// `base`; `final_` (the model with the named effects, or null) says whether it remains.
+  nlohmann::ordered_json changePoints(const Residuals& base, const Residuals* final_) const;
 
  private:
+  std::vector<LaserPose> laserPoses(const RunOut& run) const;
+  std::vector<LaserPose> smoothed(const std::vector<LaserPose>& lp, const RunOut& run, const typename En::M& model,
+                                  const typename En::M::StateVec& x) const;
+
   const En& en_;
   const DiagnoseOptions& opt_;
 };
+
+/// DIR/discovery_motion.csv and DIR/discovery_beam.csv: the rows of each design (beams:
+/// every 8th) with the response, the selected terms' fit, each selected term's column
+/// and its partial residual (the response less the other terms' part), for the report's
+/// plots against the features. Both in standardised units.
+bool writeDiscoveryCsv(const std::string& dir, const Residuals& r, std::string* error);
 
 /// The structured misfit of a design: its cross-validated SSE with the nuisance columns
 /// only, less that with the terms selected in `base` (in the same standardised units).
@@ -93,7 +113,9 @@ nlohmann::ordered_json unexplainedJson(const Residuals& base, const Residuals& f
 /// per design and together: {"motion": x|null, "beam": x|null, "total": x|null}.
 nlohmann::ordered_json explainedBy(const Residuals& base, const Residuals& with);
 
-extern template class Discovery<SyncDrive>;
-extern template class Discovery<DiffDrive>;
+extern template class Discovery<Engine<SyncDrive>>;
+extern template class Discovery<Engine<DiffDrive>>;
+extern template class Discovery<Engine<SyncDrive, Featured>>;
+extern template class Discovery<Engine<DiffDrive, Featured>>;
 
 }  // namespace odoerr::sim::diag

@@ -18,5 +18,7 @@ void runParallel(std::vector<std::function<void()>>& tasks, int threads) {
 
 template class Engine<SyncDrive>;
 template class Engine<DiffDrive>;
+template class Engine<SyncDrive, Featured>;
+template class Engine<DiffDrive, Featured>;
 
 }  // namespace odoerr::sim::diag

@@ -21,6 +21,7 @@
 #include <Eigen/Dense>
 
 #include "odoerr/effects/catalogue.hpp"
+#include "odoerr/effects/feature_effects.hpp"
 #include "odoerr/estimator.hpp"
 #include "odoerr/fw/paper_setup.hpp"
 #include "odoerr/sim/diagnose.hpp"
@@ -29,6 +30,34 @@
 namespace odoerr::sim::diag {
 
 using effects::Catalogue;
+
+template <typename A, typename B>
+struct Concat;
+template <typename... A, typename... B>
+struct Concat<std::tuple<A...>, std::tuple<B...>> {
+  using type = std::tuple<A..., B...>;
+};
+/// The catalogue and the feature effects: the model of `--with feature:...` and `--with auto`.
+using FeatureMotionE = effects::FeatureMotion<4>;
+using FeatureRangeE = effects::FeatureRange<4>;
+using Featured = typename Concat<Catalogue, std::tuple<FeatureMotionE, FeatureRangeE>>::type;
+
+/// The feature effects' slots (a discovery put into the model): at most 4 of each.
+struct FeatureSlots {
+  struct Motion {
+    effects::MotionFeature f;
+    effects::MotionTarget t;
+    double prior, ref;
+  };
+  struct Beam {
+    effects::BeamFeature f;
+    double prior, ref;
+  };
+  std::vector<Motion> motion;
+  std::vector<Beam> beam;
+  static constexpr std::size_t kMax = 4;
+  bool empty() const { return motion.empty() && beam.empty(); }
+};
 
 template <typename D, typename Tuple>
 struct ModelOf;
@@ -94,12 +123,12 @@ struct Event {
 
 enum class Mode { kFull, kFit, kEval };
 
-template <template <typename> class DriveT>
+template <template <typename> class DriveT, typename Effects = Catalogue>
 class Engine {
  public:
   using S = double;
   using Drive = DriveT<S>;
-  using M = typename ModelOf<Drive, Catalogue>::type;
+  using M = typename ModelOf<Drive, Effects>::type;
   using Est = Estimator<M, 16, 32, 64>;
   using StateVec = typename M::StateVec;
   using StateMat = typename M::StateMat;
@@ -146,7 +175,8 @@ class Engine {
     double lost_s = 0;
   };
 
-  Engine(const Odolog& log, const DiagnoseOptions& opt) : log_(log), opt_(opt) {}
+  Engine(const Odolog& log, const DiagnoseOptions& opt, FeatureSlots slots = {})
+      : log_(log), opt_(opt), slots_(std::move(slots)) {}
 
   bool prepare(std::string* error) {
     if (log_.walls.size() > 16) {
@@ -226,8 +256,24 @@ class Engine {
       reg.y_min = log_.init.y - 5;
       reg.y_max = log_.init.y + 5;
     }
+    if constexpr (!std::is_same_v<Effects, Catalogue>) {
+      auto& fm = std::get<FeatureMotionE>(m.effects);
+      if constexpr (!kSync) fm.wheelbase = drive_.wheelbase;
+      fm.xc = 0.5 * (reg.x_min + reg.x_max);
+      fm.yc = 0.5 * (reg.y_min + reg.y_max);
+      for (std::size_t i = 0; i < slots_.motion.size() && i < FeatureSlots::kMax; ++i) {
+        const auto& q = slots_.motion[i];
+        (void)fm.configure(static_cast<int>(i), q.f, q.t, q.prior, q.ref);
+      }
+      auto& fr = std::get<FeatureRangeE>(m.effects);
+      for (std::size_t i = 0; i < slots_.beam.size() && i < FeatureSlots::kMax; ++i) {
+        const auto& q = slots_.beam[i];
+        (void)fr.configure(static_cast<int>(i), q.f, q.prior, q.ref);
+      }
+    }
     return m;
   }
+  const FeatureSlots& slots() const { return slots_; }
 
   /// A spec with every effect held at nominal.
   RunSpec nominalSpec(const KVec& k, bool of_free) const {
@@ -526,11 +572,11 @@ class Engine {
 
  private:
   template <std::size_t... I>
-  void buildEffectsImpl(std::index_sequence<I...>) {
-    (addEffect<std::tuple_element_t<I, Catalogue>>(), ...);
+  void buildEffectsImpl(const M& m, std::index_sequence<I...>) {
+    (addEffect(std::get<I>(m.effects)), ...);
   }
   template <typename E>
-  void addEffect() {
+  void addEffect(const E& e) {
     EffectInfo fi;
     fi.name = E::kName;
     fi.description = E::kDescription;
@@ -538,13 +584,13 @@ class Engine {
     fi.offset = M::template offsetOf<E>();
     fi.n = E::kParams;
     for (int i = 0; i < E::kParams; ++i) {
-      fi.prior.push_back(effects::priorSigma<E>(i));
-      fi.ref.push_back(effects::referenceSize<E>(i));
+      fi.prior.push_back(effects::priorSigma(e, i));  // a feature effect's: its configured slots (0: unused)
+      fi.ref.push_back(effects::referenceSize(e, i));
       fi.pnames.push_back(E::kParamNames[i]);
     }
     effects_.push_back(fi);
   }
-  void buildEffects() { buildEffectsImpl(std::make_index_sequence<std::tuple_size_v<Catalogue>>{}); }
+  void buildEffects() { buildEffectsImpl(makeModel(), std::make_index_sequence<std::tuple_size_v<Effects>>{}); }
 
   /// The log as filter events: one per cm of encoder travel, one per scan and pose fix at
   /// its own stamp (encoder counts interpolated to it), as `odoerr replay` does.
@@ -597,6 +643,7 @@ class Engine {
 
   const Odolog& log_;
   DiagnoseOptions opt_;
+  FeatureSlots slots_;
   Drive drive_{};
   double ticks_a_ = 1, ticks_b_ = 1;
   typename Est::MapT map_;
@@ -615,5 +662,7 @@ void runParallel(std::vector<std::function<void()>>& tasks, int threads);
 
 extern template class Engine<SyncDrive>;
 extern template class Engine<DiffDrive>;
+extern template class Engine<SyncDrive, Featured>;
+extern template class Engine<DiffDrive, Featured>;
 
 }  // namespace odoerr::sim::diag

@@ -15,11 +15,10 @@ constexpr double kLostS = 10.0;  // a fit that fused scans with under a quarter 
                                  // (a model that misfits loses beams for a few seconds in a turn and recovers)
 }  // namespace
 
-template <template <typename> class DriveT>
-HeldoutResult compareHeldout(const Engine<DriveT>& en, const std::vector<int>& before_idx,
+template <typename En>
+HeldoutResult compareHeldout(const En& en, const std::vector<int>& before_idx, const En& en_after,
                              const std::vector<int>& with_idx, const std::vector<std::string>& names,
                              const DiagnoseOptions& opt) {
-  using En = Engine<DriveT>;
   using RunSpec = typename En::RunSpec;
   using RunOut = typename En::RunOut;
   using Drive = typename En::Drive;
@@ -32,19 +31,19 @@ HeldoutResult compareHeldout(const Engine<DriveT>& en, const std::vector<int>& b
   std::vector<std::function<void()>> tasks;
   // A model's fit on fold f's kept data: the drive parameters, K and the model's effects
   // free; a noise effect cannot be augmented: its fit is the profile over the kept data.
-  auto fitSpec = [&](const std::vector<int>& effects, int f) {
-    RunSpec fit = en.nominalSpec(en.initialK(), true);
+  auto fitSpec = [&](const En& eng, const std::vector<int>& effects, int f) {
+    RunSpec fit = eng.nominalSpec(eng.initialK(), true);
     fit.mode = Mode::kFit;
     fit.fold = f;
     for (int e : effects)
-      if (fx[e].kind != EffectKind::kNoise) en.freeEffect(&fit, e);
+      if (fx[e].kind != EffectKind::kNoise) eng.freeEffect(&fit, e);
     for (int e : effects) {
       if (fx[e].kind != EffectKind::kNoise) continue;
       double best = -std::numeric_limits<double>::infinity(), best_q = 0;
       for (double g : kNoiseGrid) {
         RunSpec s = fit;
         s.eff_val[fx[e].offset - kE] = g * fx[e].ref[0];
-        const RunOut r = en.run(s);  // scored on the kept data only
+        const RunOut r = eng.run(s);  // scored on the kept data only
         if (r.loglik > best) {
           best = r.loglik;
           best_q = g * fx[e].ref[0];
@@ -58,19 +57,20 @@ HeldoutResult compareHeldout(const Engine<DriveT>& en, const std::vector<int>& b
   after_idx.insert(after_idx.end(), with_idx.begin(), with_idx.end());
   for (int f = 0; f < folds; ++f) {
     tasks.push_back([&, f] {
-      fit_before_spec[f] = fitSpec(before_idx, f);
+      fit_before_spec[f] = fitSpec(en, before_idx, f);
       fit_before[f] = en.run(fit_before_spec[f]);
     });
     tasks.push_back([&, f] {
-      fit_after_spec[f] = fitSpec(after_idx, f);
-      fit_after[f] = en.run(fit_after_spec[f]);
+      fit_after_spec[f] = fitSpec(en_after, after_idx, f);
+      fit_after[f] = en_after.run(fit_after_spec[f]);
     });
   }
   runParallel(tasks, opt.threads);
   tasks.clear();
   // Evaluation: everything the fold's fit estimated is held.
-  auto evalSpec = [&](const RunOut& fit, const RunSpec& fit_spec, const std::vector<int>& effects, int fold) {
-    RunSpec ev = en.nominalSpec(fit.k, false);
+  auto evalSpec = [&](const En& eng, const RunOut& fit, const RunSpec& fit_spec, const std::vector<int>& effects,
+                      int fold) {
+    RunSpec ev = eng.nominalSpec(fit.k, false);
     ev.mode = Mode::kEval;
     ev.fold = fold;
     ev.hold_drive = true;
@@ -83,8 +83,10 @@ HeldoutResult compareHeldout(const Engine<DriveT>& en, const std::vector<int>& b
     return ev;
   };
   for (int f = 0; f < folds; ++f) {
-    tasks.push_back([&, f] { ev_before[f] = en.run(evalSpec(fit_before[f], fit_before_spec[f], before_idx, f)); });
-    tasks.push_back([&, f] { ev_after[f] = en.run(evalSpec(fit_after[f], fit_after_spec[f], after_idx, f)); });
+    tasks.push_back([&, f] { ev_before[f] = en.run(evalSpec(en, fit_before[f], fit_before_spec[f], before_idx, f)); });
+    tasks.push_back([&, f] {
+      ev_after[f] = en_after.run(evalSpec(en_after, fit_after[f], fit_after_spec[f], after_idx, f));
+    });
   }
   runParallel(tasks, opt.threads);
   tasks.clear();
@@ -243,11 +245,17 @@ bool writeHeldoutCsv(const std::string& dir, const HeldoutResult& r, std::string
   return true;
 }
 
-template HeldoutResult compareHeldout<SyncDrive>(const Engine<SyncDrive>&, const std::vector<int>&,
-                                                 const std::vector<int>&, const std::vector<std::string>&,
-                                                 const DiagnoseOptions&);
-template HeldoutResult compareHeldout<DiffDrive>(const Engine<DiffDrive>&, const std::vector<int>&,
-                                                 const std::vector<int>&, const std::vector<std::string>&,
-                                                 const DiagnoseOptions&);
+#define ODOERR_HELDOUT(EN) \
+  template HeldoutResult compareHeldout<EN>(const EN&, const std::vector<int>&, const EN&, const std::vector<int>&, \
+                                            const std::vector<std::string>&, const DiagnoseOptions&);
+using SyncEngine = Engine<SyncDrive>;
+using DiffEngine = Engine<DiffDrive>;
+using SyncFeatured = Engine<SyncDrive, Featured>;
+using DiffFeatured = Engine<DiffDrive, Featured>;
+ODOERR_HELDOUT(SyncEngine)
+ODOERR_HELDOUT(DiffEngine)
+ODOERR_HELDOUT(SyncFeatured)
+ODOERR_HELDOUT(DiffFeatured)
+#undef ODOERR_HELDOUT
 
 }  // namespace odoerr::sim::diag

@@ -18,11 +18,21 @@ struct HeldoutResult {
   std::vector<HeldScan> before, after;       ///< every used fold's predicted held-out scans, by time
 };
 
-/// Compares the model with the effects `before` (catalogue indices) against the model
-/// with `after` added, on held-out data. `names` is what the JSON lists under "with".
-template <template <typename> class DriveT>
-HeldoutResult compareHeldout(const Engine<DriveT>& en, const std::vector<int>& before, const std::vector<int>& after,
-                             const std::vector<std::string>& names, const DiagnoseOptions& opt);
+/// Compares the model with the effects `before` (indices of the engine's effects) against
+/// the model with `added` too, on held-out data. The two sides may run on different
+/// engines of one type (the same effects, other feature slots: `--with feature:...`).
+/// `names` is what the JSON lists under "with".
+template <typename En>
+HeldoutResult compareHeldout(const En& before_en, const std::vector<int>& before, const En& after_en,
+                             const std::vector<int>& added, const std::vector<std::string>& names,
+                             const DiagnoseOptions& opt);
+
+/// The same on one engine.
+template <typename En>
+HeldoutResult compareHeldout(const En& en, const std::vector<int>& before, const std::vector<int>& added,
+                             const std::vector<std::string>& names, const DiagnoseOptions& opt) {
+  return compareHeldout(en, before, en, added, names, opt);
+}
 
 /// heldout_before.csv and heldout_after.csv in dir (false with *error if not writable).
 bool writeHeldoutCsv(const std::string& dir, const HeldoutResult& r, std::string* error);

@@ -54,17 +54,23 @@ Selection fitTerms(const Design& d, const std::vector<int>& terms);
 /// Cross-validated SSE of the model with the nuisance columns and `terms`.
 double crossValidatedSse(const Design& d, const std::vector<int>& terms);
 
+/// The level of the change-point test.
+constexpr double kChangeAlpha = 0.002;
+
 struct ChangePoint {
   bool found = false;
   double t = 0, t_lo = 0, t_hi = 0;  ///< the most likely time and its interval
-  double stat = 0, threshold = 0;    ///< sup statistic and its critical value
+  double stat = 0;                   ///< the sup statistic
+  double threshold = 0;              ///< its bootstrap 0.1 % critical value
+  double p_value = 1;                ///< its bootstrap p-value
   std::vector<double> before, after; ///< the nuisance coefficients on each side
 };
 
-/// Likelihood-ratio scan for one change, at time tau, of the nuisance coefficients
-/// (Andrews' sup-Wald, 15 % trimmed at each end, critical value at the 1 % level; the
-/// residual variance inflated by the residuals' autocorrelation). The interval is the set
-/// of tau whose statistic is within `drop` of the maximum.
+/// A scan for one change of the nuisance coefficients at a cluster boundary: at each
+/// split the Wald statistic of the change with a cluster-robust covariance, its sup over
+/// the splits with 15 % to 85 % of the rows before them (Andrews' sup-Wald), its p-value by
+/// a wild cluster bootstrap (999 draws, fixed seed), found when p <= kChangeAlpha. The
+/// interval is the set of split times whose statistic is within `drop` of the maximum.
 ChangePoint scanChange(const Design& d, double drop = 7.7);
 
 }  // namespace odoerr::sim::diag

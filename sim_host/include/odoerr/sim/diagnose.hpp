@@ -20,7 +20,9 @@ namespace odoerr::sim {
 
 struct DiagnoseOptions {
   std::string out_dir;            ///< CSV outputs for the report ("" = none)
-  std::vector<std::string> with;  ///< effects to add for the held-out comparison
+  std::vector<std::string> with;  ///< effects to add for the held-out comparison (catalogue names,
+                                  ///< feature:NAME@TARGET, feature:BEAM_FEATURE, or auto)
+  std::string suggest_dir;        ///< write a C++ effect skeleton of the discovered features here ("" = none)
   int threads = 2;
   double cycle_m = 0.01;
   double k0_w = 1e-4;      ///< diff: initial K_w (m)
