@@ -112,10 +112,10 @@ class Akf {
     }
     Increment<S> inc;
     Eigen::Matrix<S, 3, 3> d_inc;
-    S drive_rho = S(0);  // the drive model's translation before the effects (the travel totals)
+    Increment<S> drive_inc;  // the drive model's increment before the effects (the travel totals)
     const Pose<S> next = transitionCS(model_, x_, u, ctx_, c, sn, &f_pose, &g_pose, &inc,
                                         Model::kHasNoiseEffects ? &d_inc : nullptr,
-                                        Model::kHasEffects ? &drive_rho : nullptr);
+                                        Model::kHasEffects ? &drive_inc : nullptr);
     const typename Model::NoiseVec q = model_.drive.noiseVariance(u, k);
 
     // P' = F P F^T + G Q G^T, with F = [f_pose; 0 I] and G = [g_pose; 0].
@@ -143,7 +143,7 @@ class Akf {
     if constexpr (Model::kHasEffects) {
       // the travel totals count the drive model's increment, before the effects (a
       // backlash span counted in scaled travel lasted 25 % longer than its 5 cm)
-      ctx_.advance(drive_rho, Model::Drive::encoderTravel(u));
+      model_.advanceContext(ctx_, drive_inc, Model::Drive::encoderTravel(u));
       if (dt > S(0)) {  // a cycle of unknown duration keeps the last velocity
         const S inv_dt = S(1) / dt;
         vel_x_ = (next.x - ctx_.x) * inv_dt;
@@ -219,16 +219,16 @@ class Akf {
   }
 
   /// The same in a motion context, with cos/sin of the heading given; also returns the
-  /// increment and, optionally, d pose / d increment and the drive model's translation
+  /// increment and, optionally, d pose / d increment and the drive model's increment
   /// before the effects.
   static Pose<S> transitionCS(const Model& model, const StateVec& x, const Input& u,
                               const MotionContext<S>& ctx, S c, S sn, Eigen::Matrix<S, 3, N>* f_pose,
                               Eigen::Matrix<S, 3, Model::kNoise>* g_pose, Increment<S>* inc_out,
-                              Eigen::Matrix<S, 3, 3>* d_inc_out = nullptr, S* drive_rho = nullptr) {
+                              Eigen::Matrix<S, 3, 3>* d_inc_out = nullptr, Increment<S>* drive_inc = nullptr) {
     Eigen::Matrix<S, 3, N> d_state;
     Eigen::Matrix<S, 3, Model::kNoise> d_noise;
     const typename Model::NoiseVec zero = Model::NoiseVec::Zero();
-    const Increment<S> inc = model.increment(u, x, zero, ctx, &d_state, &d_noise, drive_rho);
+    const Increment<S> inc = model.increment(u, x, zero, ctx, &d_state, &d_noise, drive_inc);
     IncrementJacobians<S> jp;
     const Pose<S> p{x[PoseIdx::kX], x[PoseIdx::kY], x[PoseIdx::kTheta]};
     // cos/sin of the mid-point heading theta + dtheta/2 by a small rotation.

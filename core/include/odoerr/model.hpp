@@ -43,6 +43,22 @@ namespace odoerr {
 
 enum class EffectKind { kMotion, kMeasurement, kNoise };
 
+/// The reversal odometer of one gear train (one wheel of the differential drive): the sign
+/// of its last non-zero travel and its |travel| since that sign last changed.
+template <typename S>
+struct ReversalOdometer {
+  S s_rev = std::numeric_limits<S>::infinity();  ///< |travel| since the last reversal (m)
+  int last_sign = 0;                              ///< sign of the last non-zero travel
+
+  /// Advances past a cycle whose travel was t (a travel of 0 is no reversal).
+  void advance(S t) {
+    const int sign = t > S(0) ? 1 : (t < S(0) ? -1 : 0);
+    if (sign != 0 && last_sign != 0 && sign != last_sign) s_rev = S(0);
+    if (sign != 0) last_sign = sign;
+    s_rev += std::abs(t);
+  }
+};
+
 /// What a motion or noise effect may depend on besides the increment itself: the cycle's
 /// duration (speeds are rho / dt, dtheta / dt; 0 = unknown, speed-dependent effects then
 /// stay inactive), the travel so far and the pose at the start of the cycle.
@@ -56,6 +72,11 @@ struct MotionContext {
   S x = S(0);
   S y = S(0);
   int last_sign = 0;                               ///< sign of the last non-zero rho
+  /// Each wheel's own reversal odometer (differential drive: the drive increment split as
+  /// R = rho + dtheta d / 2, L = rho - dtheta d / 2). Only models that compose a per-wheel
+  /// effect (kPerWheel) advance them: the others do not pay for it.
+  ReversalOdometer<S> wheel_r{};
+  ReversalOdometer<S> wheel_l{};
 
   /// Advances the odometers past a cycle whose translation was rho (encoders: enc).
   void advance(S rho, S enc) {
@@ -68,6 +89,14 @@ struct MotionContext {
     s_rev += std::abs(rho);
   }
 };
+
+/// Whether an effect acts on the wheels of the differential drive one by one (declares
+/// `static constexpr bool kPerWheel = true` and `wheels(increment, &right, &left)`): a
+/// model that composes one keeps each wheel's reversal odometer in the motion context.
+template <typename E, typename = void>
+struct IsPerWheel : std::false_type {};
+template <typename E>
+struct IsPerWheel<E, std::void_t<decltype(E::kPerWheel)>> : std::bool_constant<E::kPerWheel> {};
 
 /// Where a beam's ray starts and points, relative to the nominal set-up: a shift of the
 /// laser position (world frame, m) and a rotation of the ray (rad). Measurement effects
@@ -117,6 +146,9 @@ class Model {
   static constexpr bool kHasEffects = sizeof...(Effects) > 0;
   static constexpr bool kHasMeasurementEffects = (false || ... || (Effects::kKind == EffectKind::kMeasurement));
   static constexpr bool kHasNoiseEffects = (false || ... || (Effects::kKind == EffectKind::kNoise));
+  /// Some effect acts per wheel: the per-wheel odometers of the motion context are advanced
+  /// (compile-time gate: models without one, such as the firmware's, skip that work).
+  static constexpr bool kHasPerWheelEffects = (false || ... || IsPerWheel<Effects>::value);
   static constexpr int kParams = Drive::kParams + kEffectParams;
   static constexpr int kStates = PoseIdx::kDim + kParams;
   static constexpr int kNoise = Drive::kNoise;
@@ -133,7 +165,10 @@ class Model {
   }
 
   Drive drive{};
-  std::tuple<Effects...> effects{};
+  // Each effect constructed on its own: GCC 12 value-initialises a std::tuple that starts
+  // with an empty effect by zeroing storage it shares with the next one, which wiped the
+  // default members of configured effects (WheelEccentricity's wheel_radius read 0).
+  std::tuple<Effects...> effects{Effects{}...};
 
   Model() = default;
   explicit Model(const Drive& d) : drive(d) {}
@@ -152,15 +187,15 @@ class Model {
     return increment(u, x, nu, MotionContext<S>{}, d_state, d_noise);
   }
 
-  /// The same in a motion context (what the motion effects depend on). drive_rho (may be
-  /// nullptr) receives the drive model's translation before any effect: what the travel
-  /// totals of the motion context count (docs/effect-catalogue.md).
+  /// The same in a motion context (what the motion effects depend on). drive_inc (may be
+  /// nullptr) receives the drive model's increment before any effect: what the travel
+  /// totals of the motion context count (docs/effect-catalogue.md; advanceContext).
   Increment<S> increment(const Input& u, const StateVec& x, const NoiseVec& nu,
                          const MotionContext<S>& ctx, Eigen::Matrix<S, 3, kStates>* d_state,
-                         Eigen::Matrix<S, 3, kNoise>* d_noise, S* drive_rho = nullptr) const {
+                         Eigen::Matrix<S, 3, kNoise>* d_noise, Increment<S>* drive_inc = nullptr) const {
     const auto p = x.template segment<Drive::kParams>(kDriveOffset);
     Increment<S> inc = drive.increment(u, p, nu);
-    if (drive_rho != nullptr) *drive_rho = inc.rho;
+    if (drive_inc != nullptr) *drive_inc = inc;
     if (d_state != nullptr) {
       d_state->setZero();
       d_state->template block<3, Drive::kParams>(0, kDriveOffset) = drive.dIncDParams(u, p);
@@ -168,6 +203,33 @@ class Model {
     }
     applyEffects(x, ctx, inc, d_state, d_noise, std::index_sequence_for<Effects...>{});
     return inc;
+  }
+
+  /// Advances the motion context's odometers past a cycle: drive_inc is the drive model's
+  /// increment before the effects, enc the encoders' signed travel. The per-wheel odometers
+  /// only when an effect needs them (split by the first per-wheel effect's wheelbase).
+  void advanceContext(MotionContext<S>& ctx, const Increment<S>& drive_inc, S enc) const {
+    ctx.advance(drive_inc.rho, enc);
+    if constexpr (kHasPerWheelEffects) {
+      S r = drive_inc.rho;
+      S l = drive_inc.rho;
+      bool split = false;
+      std::apply(
+          [&](const auto&... e) {
+            (
+                [&](const auto& eff) {
+                  using E = std::decay_t<decltype(eff)>;
+                  if constexpr (IsPerWheel<E>::value) {
+                    if (!split) eff.wheels(drive_inc, &r, &l);
+                    split = true;
+                  }
+                }(e),
+                ...);
+          },
+          effects);
+      ctx.wheel_r.advance(r);
+      ctx.wheel_l.advance(l);
+    }
   }
 
   /// Extra variances of (rho, theta, side) from the noise effects for this increment.

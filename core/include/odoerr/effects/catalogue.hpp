@@ -9,9 +9,25 @@
 
 namespace odoerr::effects {
 
-using Catalogue = std::tuple<TurnSlip, RotationSlip, SpeedScale, WheelEccentricity, Backlash, RegionScale,
-                             RadiusDrift, TurnNoise, RangeBias, RangeScale, LaserMountXY, LaserMountYaw,
-                             ScanLatency, WallOffset>;
+using Catalogue = std::tuple<TurnSlip, RotationSlip, SpeedScale, WheelSpeedScale, WheelEccentricity, Backlash,
+                             WheelBacklash, RegionScale, RadiusDrift, TurnNoise, RangeBias, RangeScale,
+                             LaserMountXY, LaserMountYaw, ScanLatency, WallOffset>;
+
+/// Configures the per-wheel effects (kPerWheel) of a composed model's effect tuple with the
+/// drive's nominal wheelbase: DiffDrive::wheelbase, or 0 for a drive without separately
+/// driven wheels (the sync drive), which makes them no-ops.
+template <typename... E>
+void setWheelbase(std::tuple<E...>& effects, double wheelbase) {
+  std::apply(
+      [&](auto&... e) {
+        (
+            [&](auto& eff) {
+              if constexpr (IsPerWheel<std::decay_t<decltype(eff)>>::value) eff.wheelbase = wheelbase;
+            }(e),
+            ...);
+      },
+      effects);
+}
 
 /// Prior sigma of parameter i of effect E (a single listed value applies to all).
 template <typename E>
