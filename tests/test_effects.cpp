@@ -16,8 +16,8 @@ namespace {
 using namespace effects;
 using D = double;
 
-MotionContext<D> testContext() {
-  MotionContext<D> ctx;
+WheelMotionContext<D> testContext() {
+  WheelMotionContext<D> ctx;
   ctx.dt = 0.02;
   ctx.s_abs = 37.0;
   ctx.s_signed = 12.0;
@@ -35,7 +35,7 @@ MotionContext<D> testContext() {
 
 template <typename E>
 void checkMotionJacobians(const E& eff, const std::vector<D>& p0, const Increment<D>& in = {0.012, 0.004, 0.0003},
-                          const MotionContext<D>& ctx = testContext()) {
+                          const WheelMotionContext<D>& ctx = testContext()) {
   Eigen::Matrix<D, 3, 3> d_in;
   Eigen::Matrix<D, 3, E::kParams> d_p;
   (void)eff.apply(in, p0.data(), ctx, d_in, d_p);
@@ -99,11 +99,11 @@ TEST(Effects, PerWheelJacobiansMatchFiniteDifferences) {
   // both leave their spans mid-cycle (R 0.036, L 0.034)
   checkMotionJacobians(onWheels<WheelBacklash>(), {0.008, 0.002}, Increment<D>{0.035, 0.004, 0.0003});
   // far from any reversal, a turn while driving forwards reverses only the left wheel
-  MotionContext<D> far = testContext();
+  WheelMotionContext<D> far = testContext();
   far.wheel_r.s_rev = far.wheel_l.s_rev = 0.4;
   checkMotionJacobians(onWheels<WheelBacklash>(), {0.008, 0.002}, Increment<D>{0.002, 0.04, 0}, far);  // R 0.012, L -0.008
   // a turn in place that changes direction reverses both wheels
-  MotionContext<D> ccw = far;
+  WheelMotionContext<D> ccw = far;
   ccw.wheel_r.last_sign = -1;
   ccw.wheel_l.last_sign = 1;
   checkMotionJacobians(onWheels<WheelBacklash>(), {0.008, 0.002}, Increment<D>{0.0003, 0.06, 0}, ccw);
@@ -111,14 +111,14 @@ TEST(Effects, PerWheelJacobiansMatchFiniteDifferences) {
   checkMotionJacobians(onWheels<WheelBacklash>(), {0.008, 0.002}, Increment<D>{0, 0.28, 0}, ccw);
 }
 
-Increment<D> applyTo(const Increment<D>& in, const D* p, const MotionContext<D>& ctx, const WheelBacklash& e) {
+Increment<D> applyTo(const Increment<D>& in, const D* p, const WheelMotionContext<D>& ctx, const WheelBacklash& e) {
   Eigen::Matrix<D, 3, 3> di;
   Eigen::Matrix<D, 3, 2> dp;
   return e.apply(in, p, ctx, di, dp);
 }
 
 TEST(Effects, PerWheelPhysicsFollowsTheContract) {
-  const MotionContext<D> ctx = testContext();
+  const WheelMotionContext<D> ctx = testContext();
   Eigen::Matrix<D, 3, 3> di;
   Eigen::Matrix<D, 3, 2> dp;
   const D d = 0.5;
@@ -142,21 +142,21 @@ TEST(Effects, PerWheelPhysicsFollowsTheContract) {
   EXPECT_NEAR(ob.rho, 0.5 * (rb + lb), 1e-15);
   EXPECT_NEAR(ob.theta, (rb - lb) / d, 1e-15);
   // only the wheel inside its span loses
-  MotionContext<D> right_only = ctx;
+  WheelMotionContext<D> right_only = ctx;
   right_only.wheel_l.s_rev = 0.3;
   const Increment<D> orr = applyTo(in, b, right_only, onWheels<WheelBacklash>());
   EXPECT_NEAR(orr.rho, 0.5 * (rb + 0.009), 1e-15);
   EXPECT_NEAR(orr.theta, (rb - 0.009) / d, 1e-15);
   // a wheel's reversal in this very cycle starts its span: a turn while driving forwards
   // (R 0.012, L -0.008) reverses the left wheel only
-  MotionContext<D> far = ctx;
+  WheelMotionContext<D> far = ctx;
   far.wheel_r.s_rev = far.wheel_l.s_rev = 0.4;
   const Increment<D> turn{0.002, 0.04, 0};
   const Increment<D> ot = applyTo(turn, b, far, onWheels<WheelBacklash>());
   EXPECT_NEAR(ot.rho + 0.25 * ot.theta, 0.012, 1e-15);
   EXPECT_NEAR(ot.rho - 0.25 * ot.theta, -0.008 * (1 - 0.002 / 0.05), 1e-15);
   // a cycle that leaves the right wheel's span loses only on its part inside it
-  MotionContext<D> edge = far;
+  WheelMotionContext<D> edge = far;
   edge.wheel_r.s_rev = 0.045;
   const Increment<D> oe = applyTo(Increment<D>{0.01, 0, 0}, b, edge, onWheels<WheelBacklash>());
   EXPECT_NEAR(oe.rho + 0.25 * oe.theta, 0.01 - 0.008 * 0.005 / 0.05, 1e-15);
@@ -197,7 +197,7 @@ TEST(Effects, WheelBacklashLosesExactlyBPerWheelReversalWhateverTheCycleLength) 
   const D b[2] = {0.008, 0.002};
   const WheelBacklash e = onWheels<WheelBacklash>();
   for (const D step : {0.003, 0.01, 0.013, 0.04, 0.07}) {
-    MotionContext<D> ctx;
+    WheelMotionContext<D> ctx;
     D lost_r = 0, lost_l = 0;
     auto legs = {std::pair<D, D>{0.4, 0.2}, {0.3, -0.3}, {-0.3, 0.3}, {0.3, 0.3}};  // wheel travel R, L of a leg
     int reversals_r = 0, reversals_l = 0;
@@ -228,8 +228,10 @@ TEST(Effects, FilterCountsEachWheelsOwnReversals) {
   // drive model's wheel travel; a model without one leaves them untouched (compile-time gate).
   using MW = Model<DiffDrive<D>, SpeedScale, WheelBacklash>;
   using MB = Model<DiffDrive<D>, Backlash>;
-  static_assert(MW::kHasPerWheelEffects && !MB::kHasPerWheelEffects);
-  static_assert(!Model<DiffDrive<float>>::kHasPerWheelEffects);
+  static_assert(MW::kHasWheelOdometers && !MB::kHasWheelOdometers);
+  static_assert(std::is_same_v<MB::Context, MotionContext<D>>);  // no storage either
+  static_assert(std::is_same_v<Model<DiffDrive<float>>::Context, MotionContext<float>>);
+  static_assert(!Model<DiffDrive<D>, WheelSpeedScale>::kHasWheelOdometers);  // it needs only the split
   DiffDrive<D> drive;
   drive.wheelbase = 0.5;
   MW mw(drive);
@@ -265,13 +267,11 @@ TEST(Effects, FilterCountsEachWheelsOwnReversals) {
   step(0.01, 0.005);  // forwards again: the right wheel reverses, the left goes on
   EXPECT_NEAR(c.wheel_r.s_rev, 0.01, 1e-12);
   EXPECT_NEAR(c.wheel_l.s_rev, 0.045, 1e-12);
-  // the model without a per-wheel effect never touched them
-  EXPECT_TRUE(std::isinf(akf_b.motionContext().wheel_r.s_rev));
-  EXPECT_EQ(akf_b.motionContext().wheel_l.last_sign, 0);
+  EXPECT_NEAR(akf_b.motionContext().s_abs, c.s_abs, 1e-15);  // the robot's odometers alike
 }
 
 TEST(Effects, MotionPhysicsFollowsTheContract) {
-  const MotionContext<D> ctx = testContext();
+  const WheelMotionContext<D> ctx = testContext();
   const Increment<D> in{0.01, 0.005, 0};
   Eigen::Matrix<D, 3, 3> di;
   Eigen::Matrix<D, 3, 1> dp1;
@@ -281,7 +281,7 @@ TEST(Effects, MotionPhysicsFollowsTheContract) {
   // rotation_slip: dtheta *= 1 - k |w|
   EXPECT_NEAR(RotationSlip{}.apply(in, &k, ctx, di, dp1).theta, 0.005 * (1 - k * 0.25), 1e-15);
   // backlash: inside the 5 cm span the travel is scaled by 1 - b / 0.05; outside not
-  MotionContext<D> far = ctx;
+  WheelMotionContext<D> far = ctx;
   far.s_rev = 0.2;
   const D b = 0.004;
   EXPECT_NEAR(Backlash{}.apply(in, &b, ctx, di, dp1).rho, 0.01 * (1 - b / 0.05), 1e-15);
@@ -290,11 +290,11 @@ TEST(Effects, MotionPhysicsFollowsTheContract) {
   const Increment<D> back{-0.01, 0, 0};
   EXPECT_NEAR(Backlash{}.apply(back, &b, far, di, dp1).rho, -0.01 * (1 - b / 0.05), 1e-15);
   // a cycle that leaves the span loses only on its part inside it
-  MotionContext<D> edge = ctx;
+  WheelMotionContext<D> edge = ctx;
   edge.s_rev = 0.045;
   EXPECT_NEAR(Backlash{}.apply(in, &b, edge, di, dp1).rho, 0.01 - b * 0.005 / 0.05, 1e-15);
   // speed-dependent effects stay inactive when the cycle time is unknown
-  MotionContext<D> no_dt = ctx;
+  WheelMotionContext<D> no_dt = ctx;
   no_dt.dt = 0;
   EXPECT_DOUBLE_EQ(SpeedScale{}.apply(in, &k, no_dt, di, dp1).rho, 0.01);
   // region_scale: the cell of (4.2, 5.1) in a 3x3 grid over [0, 10]^2 is row 1, col 1
@@ -304,7 +304,7 @@ TEST(Effects, MotionPhysicsFollowsTheContract) {
   EXPECT_EQ(reg.cell(4.2, 5.1), 4);
   EXPECT_EQ(reg.cell(-3, 11), 6);  // clamped
   // odometers: a reversal resets s_rev; s_enc follows the encoders
-  MotionContext<D> m;
+  WheelMotionContext<D> m;
   m.advance(0.01, 0.011);
   m.advance(-0.01, -0.0105);
   EXPECT_NEAR(m.s_rev, 0.01, 1e-15);
@@ -317,7 +317,7 @@ TEST(Effects, BacklashLosesExactlyBPerReversalWhateverTheCycleLength) {
   // after the reversal is b, however the cycles fall on the 5 cm span.
   const D b = 0.01;
   for (const D step : {0.003, 0.01, 0.013, 0.04, 0.07}) {
-    MotionContext<D> ctx;
+    WheelMotionContext<D> ctx;
     Eigen::Matrix<D, 3, 3> di;
     Eigen::Matrix<D, 3, 1> dp;
     D lost = 0;

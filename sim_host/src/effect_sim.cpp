@@ -124,7 +124,7 @@ bool simulateEffectDrive(const EffectSimConfig& cfg, std::string* text, std::str
     std::string per_wheel;
     forEachEffect([&](auto e) {
       using E = decltype(e);
-      if constexpr (IsPerWheel<E>::value) {
+      if constexpr (std::is_base_of_v<effects::PerWheel, E>) {
         if (cfg.effects.count(E::kName) != 0) per_wheel = E::kName;
       }
     });
@@ -221,7 +221,7 @@ bool simulateEffectDrive(const EffectSimConfig& cfg, std::string* text, std::str
   std::mt19937_64 rng(cfg.seed * 0x9E3779B97F4A7C15ull + 17);
   std::normal_distribution<double> n01(0.0, 1.0);
   Pose<double> plan = truth;
-  MotionContext<double> ctx;
+  WheelMotionContext<double> ctx;  // what every catalogue effect may depend on
   ctx.dt = kDt;
   std::vector<Pose<double>> history{truth};
   double pos_a = 0, pos_b = 0;
@@ -299,7 +299,7 @@ bool simulateEffectDrive(const EffectSimConfig& cfg, std::string* text, std::str
         E inst{};
         if constexpr (std::is_same_v<E, effects::WheelEccentricity>) inst = ecc;
         if constexpr (std::is_same_v<E, effects::RegionScale>) inst = region;
-        if constexpr (IsPerWheel<E>::value) inst.wheelbase = wheels.wheelbase;
+        if constexpr (std::is_base_of_v<effects::PerWheel, E>) inst.wheelbase = wheels.wheelbase;
         Eigen::Matrix3d d_in;
         Eigen::Matrix<double, 3, E::kParams> d_p;
         inc = inst.apply(inc, it->second.data(), ctx, d_in, d_p);

@@ -215,14 +215,14 @@ class Akf {
     S sn;
     sinCos(x[PoseIdx::kTheta], &sn, &c);
     Increment<S> inc;
-    return transitionCS(model, x, u, MotionContext<S>{}, c, sn, f_pose, g_pose, &inc);
+    return transitionCS(model, x, u, typename Model::Context{}, c, sn, f_pose, g_pose, &inc);
   }
 
   /// The same in a motion context, with cos/sin of the heading given; also returns the
   /// increment and, optionally, d pose / d increment and the drive model's increment
   /// before the effects.
   static Pose<S> transitionCS(const Model& model, const StateVec& x, const Input& u,
-                              const MotionContext<S>& ctx, S c, S sn, Eigen::Matrix<S, 3, N>* f_pose,
+                              const typename Model::Context& ctx, S c, S sn, Eigen::Matrix<S, 3, N>* f_pose,
                               Eigen::Matrix<S, 3, Model::kNoise>* g_pose, Increment<S>* inc_out,
                               Eigen::Matrix<S, 3, 3>* d_inc_out = nullptr, Increment<S>* drive_inc = nullptr) {
     Eigen::Matrix<S, 3, N> d_state;
@@ -405,7 +405,7 @@ class Akf {
   S velocityX() const { return vel_x_; }
   S velocityY() const { return vel_y_; }
   S turnRate() const { return vel_w_; }
-  const MotionContext<S>& motionContext() const { return ctx_; }
+  const typename Model::Context& motionContext() const { return ctx_; }
 
  private:
   /// A state held constant: its variance is exactly zero and so is its gain (a parameter
@@ -604,7 +604,7 @@ class Akf {
   StateMat p_ = StateMat::Identity();
   AkfCounters counters_{};
   // What effects depend on (unused, and never touched, in a model without effects).
-  MotionContext<S> ctx_{};
+  typename Model::Context ctx_{};
   S vel_x_ = S(0);
   S vel_y_ = S(0);
   S vel_w_ = S(0);

@@ -72,11 +72,6 @@ struct MotionContext {
   S x = S(0);
   S y = S(0);
   int last_sign = 0;                               ///< sign of the last non-zero rho
-  /// Each wheel's own reversal odometer (differential drive: the drive increment split as
-  /// R = rho + dtheta d / 2, L = rho - dtheta d / 2). Only models that compose a per-wheel
-  /// effect (kPerWheel) advance them: the others do not pay for it.
-  ReversalOdometer<S> wheel_r{};
-  ReversalOdometer<S> wheel_l{};
 
   /// Advances the odometers past a cycle whose translation was rho (encoders: enc).
   void advance(S rho, S enc) {
@@ -90,13 +85,23 @@ struct MotionContext {
   }
 };
 
-/// Whether an effect acts on the wheels of the differential drive one by one (declares
-/// `static constexpr bool kPerWheel = true` and `wheels(increment, &right, &left)`): a
-/// model that composes one keeps each wheel's reversal odometer in the motion context.
+/// The motion context of a model with an effect that needs each wheel's own reversals
+/// (differential drive; the drive model's increment split as R = rho + dtheta d / 2,
+/// L = rho - dtheta d / 2 by the effect's wheels()). Only such models use it: the others,
+/// the firmware's among them, keep the plain MotionContext, neither larger nor slower.
+template <typename S>
+struct WheelMotionContext : MotionContext<S> {
+  ReversalOdometer<S> wheel_r{};  ///< the right wheel's own reversal odometer
+  ReversalOdometer<S> wheel_l{};  ///< the left wheel's
+};
+
+/// Whether an effect needs the wheels' reversal odometers: it declares
+/// `static constexpr bool kWheelOdometers = true`, `wheels(increment, &right, &left)` (the
+/// split), and takes a `const WheelMotionContext<S>&` in apply().
 template <typename E, typename = void>
-struct IsPerWheel : std::false_type {};
+struct UsesWheelOdometers : std::false_type {};
 template <typename E>
-struct IsPerWheel<E, std::void_t<decltype(E::kPerWheel)>> : std::bool_constant<E::kPerWheel> {};
+struct UsesWheelOdometers<E, std::void_t<decltype(E::kWheelOdometers)>> : std::bool_constant<E::kWheelOdometers> {};
 
 /// Where a beam's ray starts and points, relative to the nominal set-up: a shift of the
 /// laser position (world frame, m) and a rotation of the ray (rad). Measurement effects
@@ -146,13 +151,17 @@ class Model {
   static constexpr bool kHasEffects = sizeof...(Effects) > 0;
   static constexpr bool kHasMeasurementEffects = (false || ... || (Effects::kKind == EffectKind::kMeasurement));
   static constexpr bool kHasNoiseEffects = (false || ... || (Effects::kKind == EffectKind::kNoise));
-  /// Some effect acts per wheel: the per-wheel odometers of the motion context are advanced
-  /// (compile-time gate: models without one, such as the firmware's, skip that work).
-  static constexpr bool kHasPerWheelEffects = (false || ... || IsPerWheel<Effects>::value);
+  /// Some effect needs each wheel's reversals: the motion context is a WheelMotionContext
+  /// and its wheel odometers are advanced (compile-time gate: models without such an effect,
+  /// the firmware's among them, neither store nor compute them).
+  static constexpr bool kHasWheelOdometers = (false || ... || UsesWheelOdometers<Effects>::value);
   static constexpr int kParams = Drive::kParams + kEffectParams;
   static constexpr int kStates = PoseIdx::kDim + kParams;
   static constexpr int kNoise = Drive::kNoise;
   static constexpr int kNonSys = Drive::kNonSys;
+
+  /// What the motion effects of this model depend on.
+  using Context = std::conditional_t<kHasWheelOdometers, WheelMotionContext<S>, MotionContext<S>>;
 
   using StateVec = Eigen::Matrix<S, kStates, 1>;
   using StateMat = Eigen::Matrix<S, kStates, kStates>;
@@ -184,18 +193,25 @@ class Model {
   Increment<S> increment(const Input& u, const StateVec& x, const NoiseVec& nu,
                          Eigen::Matrix<S, 3, kStates>* d_state = nullptr,
                          Eigen::Matrix<S, 3, kNoise>* d_noise = nullptr) const {
-    return increment(u, x, nu, MotionContext<S>{}, d_state, d_noise);
+    return increment(u, x, nu, Context{}, d_state, d_noise);
   }
 
   /// The same in a motion context (what the motion effects depend on). drive_inc (may be
-  /// nullptr) receives the drive model's increment before any effect: what the travel
-  /// totals of the motion context count (docs/effect-catalogue.md; advanceContext).
+  /// nullptr) receives the drive model's increment before any effect, what the travel
+  /// totals of the motion context count (docs/effect-catalogue.md; advanceContext): its rho,
+  /// and its theta in a model with wheel odometers (the other members are left as they are).
   Increment<S> increment(const Input& u, const StateVec& x, const NoiseVec& nu,
-                         const MotionContext<S>& ctx, Eigen::Matrix<S, 3, kStates>* d_state,
+                         const Context& ctx, Eigen::Matrix<S, 3, kStates>* d_state,
                          Eigen::Matrix<S, 3, kNoise>* d_noise, Increment<S>* drive_inc = nullptr) const {
     const auto p = x.template segment<Drive::kParams>(kDriveOffset);
     Increment<S> inc = drive.increment(u, p, nu);
-    if (drive_inc != nullptr) *drive_inc = inc;
+    if (drive_inc != nullptr) {
+      // Only what advanceContext reads: copying the whole increment in every model (the
+      // firmware's, which passes nullptr, included) changed how GCC compiled the cycle and
+      // cost 22 instructions per cycle on the Cortex-M4F.
+      drive_inc->rho = inc.rho;
+      if constexpr (kHasWheelOdometers) drive_inc->theta = inc.theta;
+    }
     if (d_state != nullptr) {
       d_state->setZero();
       d_state->template block<3, Drive::kParams>(0, kDriveOffset) = drive.dIncDParams(u, p);
@@ -206,11 +222,11 @@ class Model {
   }
 
   /// Advances the motion context's odometers past a cycle: drive_inc is the drive model's
-  /// increment before the effects, enc the encoders' signed travel. The per-wheel odometers
-  /// only when an effect needs them (split by the first per-wheel effect's wheelbase).
-  void advanceContext(MotionContext<S>& ctx, const Increment<S>& drive_inc, S enc) const {
+  /// increment before the effects, enc the encoders' signed travel. The wheel odometers only
+  /// when an effect needs them (split by the first such effect's wheels()).
+  void advanceContext(Context& ctx, const Increment<S>& drive_inc, S enc) const {
     ctx.advance(drive_inc.rho, enc);
-    if constexpr (kHasPerWheelEffects) {
+    if constexpr (kHasWheelOdometers) {
       S r = drive_inc.rho;
       S l = drive_inc.rho;
       bool split = false;
@@ -219,7 +235,7 @@ class Model {
             (
                 [&](const auto& eff) {
                   using E = std::decay_t<decltype(eff)>;
-                  if constexpr (IsPerWheel<E>::value) {
+                  if constexpr (UsesWheelOdometers<E>::value) {
                     if (!split) eff.wheels(drive_inc, &r, &l);
                     split = true;
                   }
@@ -312,7 +328,7 @@ class Model {
   }
 
   template <std::size_t... I>
-  void applyEffects(const StateVec& x, const MotionContext<S>& ctx, Increment<S>& inc,
+  void applyEffects(const StateVec& x, const Context& ctx, Increment<S>& inc,
                     Eigen::Matrix<S, 3, kStates>* d_state, Eigen::Matrix<S, 3, kNoise>* d_noise,
                     std::index_sequence<I...>) const {
     (void)x;  // unused when the model has no effects
@@ -322,7 +338,7 @@ class Model {
     (applyOne(std::get<I>(effects), x, ctx, inc, d_state, d_noise), ...);
   }
   template <typename E>
-  void applyOne(const E& e, const StateVec& x, const MotionContext<S>& ctx, Increment<S>& inc,
+  void applyOne(const E& e, const StateVec& x, const Context& ctx, Increment<S>& inc,
                 Eigen::Matrix<S, 3, kStates>* d_state, Eigen::Matrix<S, 3, kNoise>* d_noise) const {
     if constexpr (E::kKind == EffectKind::kMotion) {
       constexpr int off = offsetOf<E>();

@@ -13,7 +13,7 @@ using Catalogue = std::tuple<TurnSlip, RotationSlip, SpeedScale, WheelSpeedScale
                              WheelBacklash, RegionScale, RadiusDrift, TurnNoise, RangeBias, RangeScale,
                              LaserMountXY, LaserMountYaw, ScanLatency, WallOffset>;
 
-/// Configures the per-wheel effects (kPerWheel) of a composed model's effect tuple with the
+/// Configures the per-wheel effects (PerWheel) of a composed model's effect tuple with the
 /// drive's nominal wheelbase: DiffDrive::wheelbase, or 0 for a drive without separately
 /// driven wheels (the sync drive), which makes them no-ops.
 template <typename... E>
@@ -22,7 +22,7 @@ void setWheelbase(std::tuple<E...>& effects, double wheelbase) {
       [&](auto&... e) {
         (
             [&](auto& eff) {
-              if constexpr (IsPerWheel<std::decay_t<decltype(eff)>>::value) eff.wheelbase = wheelbase;
+              if constexpr (std::is_base_of_v<PerWheel, std::decay_t<decltype(eff)>>) eff.wheelbase = wheelbase;
             }(e),
             ...);
       },

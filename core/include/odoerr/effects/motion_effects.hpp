@@ -66,10 +66,8 @@ inline S backlashTravel(S t, S b, S s_rev_before, int last_sign, S* g, S* c) {
 /// wheels' travel R = rho + dtheta d / 2, L = rho - dtheta d / 2, and back after each wheel
 /// changed on its own: rho = (R' + L') / 2, dtheta = (R' - L') / d, side unchanged.
 /// A wheelbase of 0 means there are no separately driven wheels (the sync drive): the
-/// effect is then a no-op. kPerWheel makes a Model that composes the effect keep each
-/// wheel's reversal odometer (ctx.wheel_r, ctx.wheel_l); other models skip that work.
+/// effect is then a no-op. effects::setWheelbase configures every PerWheel effect of a model.
 struct PerWheel {
-  static constexpr bool kPerWheel = true;
   /// The drive's nominal wheelbase d (m), set by the composing code to DiffDrive::wheelbase
   /// (effects::setWheelbase). 0, the default and the sync drive's: no wheels, a no-op.
   double wheelbase = 0.0;
@@ -270,8 +268,10 @@ struct WheelBacklash : NominalZero<WheelBacklash>, PerWheel {
   static constexpr double kPriorSigma[kParams] = {0.01, 0.01};
   static constexpr double kReference[kParams] = {0.004, 0.004};
   static constexpr double kSpan = kBacklashSpan;
+  /// A Model that composes it keeps each wheel's reversal odometer (WheelMotionContext).
+  static constexpr bool kWheelOdometers = true;
   template <typename S>
-  Increment<S> apply(const Increment<S>& in, const S* p, const MotionContext<S>& ctx,
+  Increment<S> apply(const Increment<S>& in, const S* p, const WheelMotionContext<S>& ctx,
                      Eigen::Matrix<S, 3, 3>& d_in, Eigen::Matrix<S, 3, kParams>& d_p) const {
     startJacobians(d_in, d_p);
     if (!hasWheels()) return in;
