@@ -17,14 +17,18 @@ namespace {
 using namespace effects;
 using D = double;
 
-MotionContext<D> testContext() {
-  MotionContext<D> ctx;
+WheelMotionContext<D> testContext() {
+  WheelMotionContext<D> ctx;
   ctx.dt = 0.02;
   ctx.s_abs = 37.0;
   ctx.s_signed = 12.0;
   ctx.s_enc = 11.7;
   ctx.s_rev = 0.02;  // inside the backlash span
   ctx.last_sign = 1;
+  ctx.wheel_r.s_rev = 0.02;  // each wheel inside its own backlash span
+  ctx.wheel_r.last_sign = 1;
+  ctx.wheel_l.s_rev = 0.03;
+  ctx.wheel_l.last_sign = 1;
   ctx.x = 4.2;
   ctx.y = 5.1;
   ctx.setHeading(0.7);  // read by the feature effects' heading features and world targets
@@ -32,8 +36,8 @@ MotionContext<D> testContext() {
 }
 
 template <typename E>
-void checkMotionJacobians(const E& eff, const std::vector<D>& p0, const Increment<D>& in = {0.012, 0.004, 0.0003}) {
-  const MotionContext<D> ctx = testContext();
+void checkMotionJacobians(const E& eff, const std::vector<D>& p0, const Increment<D>& in = {0.012, 0.004, 0.0003},
+                          const WheelMotionContext<D>& ctx = testContext()) {
   Eigen::Matrix<D, 3, 3> d_in;
   Eigen::Matrix<D, 3, E::kParams> d_p;
   (void)eff.apply(in, p0.data(), ctx, d_in, d_p);
@@ -76,8 +80,200 @@ TEST(Effects, MotionJacobiansMatchFiniteDifferences) {
   checkMotionJacobians(RadiusDrift{}, {0.02});
 }
 
+// The per-wheel effects configured for a wheelbase of 0.5 (R = rho + 0.25 dtheta,
+// L = rho - 0.25 dtheta).
+template <typename E>
+E onWheels(E e = E{}) {
+  e.wheelbase = 0.5;
+  return e;
+}
+
+// The per-wheel effects' Jacobians at points where each wheel's part is active.
+TEST(Effects, PerWheelJacobiansMatchFiniteDifferences) {
+  // wheel_speed_scale: both wheels forwards at different speeds; a turn in place (R > 0 > L)
+  checkMotionJacobians(onWheels<WheelSpeedScale>(), {0.03, -0.02});
+  checkMotionJacobians(onWheels<WheelSpeedScale>(), {0.03, -0.02}, Increment<D>{0.0005, 0.06, 0.0002});
+  checkMotionJacobians(onWheels<WheelSpeedScale>(), {0.03, -0.02}, Increment<D>{-0.011, -0.01, 0});  // backwards
+  // wheel_backlash, both wheels inside their spans (R 0.013, L 0.011)
+  checkMotionJacobians(onWheels<WheelBacklash>(), {0.008, 0.002});
+  // the right wheel leaves its span mid-cycle (R 0.0325 > 0.03), the left stays in (L 0.0175 < 0.02)
+  checkMotionJacobians(onWheels<WheelBacklash>(), {0.008, 0.002}, Increment<D>{0.025, 0.03, 0.0001});
+  // both leave their spans mid-cycle (R 0.036, L 0.034)
+  checkMotionJacobians(onWheels<WheelBacklash>(), {0.008, 0.002}, Increment<D>{0.035, 0.004, 0.0003});
+  // far from any reversal, a turn while driving forwards reverses only the left wheel
+  WheelMotionContext<D> far = testContext();
+  far.wheel_r.s_rev = far.wheel_l.s_rev = 0.4;
+  checkMotionJacobians(onWheels<WheelBacklash>(), {0.008, 0.002}, Increment<D>{0.002, 0.04, 0}, far);  // R 0.012, L -0.008
+  // a turn in place that changes direction reverses both wheels
+  WheelMotionContext<D> ccw = far;
+  ccw.wheel_r.last_sign = -1;
+  ccw.wheel_l.last_sign = 1;
+  checkMotionJacobians(onWheels<WheelBacklash>(), {0.008, 0.002}, Increment<D>{0.0003, 0.06, 0}, ccw);
+  // a reversal cycle longer than the span (R 0.07, L -0.07)
+  checkMotionJacobians(onWheels<WheelBacklash>(), {0.008, 0.002}, Increment<D>{0, 0.28, 0}, ccw);
+}
+
+Increment<D> applyTo(const Increment<D>& in, const D* p, const WheelMotionContext<D>& ctx, const WheelBacklash& e) {
+  Eigen::Matrix<D, 3, 3> di;
+  Eigen::Matrix<D, 3, 2> dp;
+  return e.apply(in, p, ctx, di, dp);
+}
+
+TEST(Effects, PerWheelPhysicsFollowsTheContract) {
+  const WheelMotionContext<D> ctx = testContext();
+  Eigen::Matrix<D, 3, 3> di;
+  Eigen::Matrix<D, 3, 2> dp;
+  const D d = 0.5;
+  // wheel_speed_scale: R = 0.011, L = 0.009 at dt 0.02: each scaled by 1 + k_X |X| / dt
+  const D k[2] = {0.03, -0.02};
+  const Increment<D> in{0.01, 0.004, 0.0002};
+  const D r = 0.011 * (1 + 0.03 * 0.011 / 0.02), l = 0.009 * (1 - 0.02 * 0.009 / 0.02);
+  const Increment<D> o = onWheels<WheelSpeedScale>().apply(in, k, ctx, di, dp);
+  EXPECT_NEAR(o.rho, 0.5 * (r + l), 1e-15);
+  EXPECT_NEAR(o.theta, (r - l) / d, 1e-15);
+  EXPECT_DOUBLE_EQ(o.side, 0.0002);
+  // equal parameters on a straight run: the robot-level speed_scale
+  const D kk[2] = {0.03, 0.03};
+  Eigen::Matrix<D, 3, 1> dp1;
+  EXPECT_NEAR(onWheels<WheelSpeedScale>().apply(Increment<D>{0.01, 0, 0}, kk, ctx, di, dp).rho,
+              SpeedScale{}.apply(Increment<D>{0.01, 0, 0}, kk, ctx, di, dp1).rho, 1e-15);
+  // wheel_backlash: R = 0.011 inside its span loses b_R / 0.05 of it, L = 0.009 likewise
+  const D b[2] = {0.008, 0.002};
+  const Increment<D> ob = applyTo(in, b, ctx, onWheels<WheelBacklash>());
+  const D rb = 0.011 * (1 - 0.008 / 0.05), lb = 0.009 * (1 - 0.002 / 0.05);
+  EXPECT_NEAR(ob.rho, 0.5 * (rb + lb), 1e-15);
+  EXPECT_NEAR(ob.theta, (rb - lb) / d, 1e-15);
+  // only the wheel inside its span loses
+  WheelMotionContext<D> right_only = ctx;
+  right_only.wheel_l.s_rev = 0.3;
+  const Increment<D> orr = applyTo(in, b, right_only, onWheels<WheelBacklash>());
+  EXPECT_NEAR(orr.rho, 0.5 * (rb + 0.009), 1e-15);
+  EXPECT_NEAR(orr.theta, (rb - 0.009) / d, 1e-15);
+  // a wheel's reversal in this very cycle starts its span: a turn while driving forwards
+  // (R 0.012, L -0.008) reverses the left wheel only
+  WheelMotionContext<D> far = ctx;
+  far.wheel_r.s_rev = far.wheel_l.s_rev = 0.4;
+  const Increment<D> turn{0.002, 0.04, 0};
+  const Increment<D> ot = applyTo(turn, b, far, onWheels<WheelBacklash>());
+  EXPECT_NEAR(ot.rho + 0.25 * ot.theta, 0.012, 1e-15);
+  EXPECT_NEAR(ot.rho - 0.25 * ot.theta, -0.008 * (1 - 0.002 / 0.05), 1e-15);
+  // a cycle that leaves the right wheel's span loses only on its part inside it
+  WheelMotionContext<D> edge = far;
+  edge.wheel_r.s_rev = 0.045;
+  const Increment<D> oe = applyTo(Increment<D>{0.01, 0, 0}, b, edge, onWheels<WheelBacklash>());
+  EXPECT_NEAR(oe.rho + 0.25 * oe.theta, 0.01 - 0.008 * 0.005 / 0.05, 1e-15);
+  EXPECT_NEAR(oe.rho - 0.25 * oe.theta, 0.01, 1e-15);
+  // no wheels (the default, and the sync drive's wheelbase 0): both are no-ops with zero
+  // parameter columns
+  const WheelBacklash none;
+  const WheelSpeedScale none_s;
+  const Increment<D> on = none.apply(in, b, ctx, di, dp);
+  EXPECT_EQ(on.rho, in.rho);
+  EXPECT_EQ(on.theta, in.theta);
+  EXPECT_TRUE(dp.isZero(0));
+  EXPECT_TRUE(di.isIdentity(0));
+  const Increment<D> ons = none_s.apply(in, k, ctx, di, dp);
+  EXPECT_EQ(ons.rho, in.rho);
+  EXPECT_EQ(ons.theta, in.theta);
+  EXPECT_TRUE(dp.isZero(0));
+  // setWheelbase configures every per-wheel effect of a composed tuple and no other
+  Model<DiffDrive<D>, SpeedScale, WheelSpeedScale, WheelEccentricity, WheelBacklash> mt;
+  auto& t = mt.effects;
+  EXPECT_EQ(std::get<WheelBacklash>(t).wheelbase, 0.0);  // unconfigured: no wheels
+  setWheelbase(t, 0.62);
+  EXPECT_EQ(std::get<WheelSpeedScale>(t).wheelbase, 0.62);
+  EXPECT_EQ(std::get<WheelBacklash>(t).wheelbase, 0.62);
+  EXPECT_EQ(std::get<WheelEccentricity>(t).wheel_radius, 0.05);
+  // a composed model keeps its effects' defaults (GCC 12 zeroed them in a value-initialised
+  // tuple that starts with an empty effect)
+  const Model<DiffDrive<D>, TurnSlip, WheelEccentricity, RegionScale> m;
+  EXPECT_EQ(std::get<WheelEccentricity>(m.effects).wheel_radius, 0.05);
+  EXPECT_EQ(std::get<RegionScale>(m.effects).x_max, 1.0);
+}
+
+TEST(Effects, WheelBacklashLosesExactlyBPerWheelReversalWhateverTheCycleLength) {
+  // Drive a curve forwards (both wheels forwards), then turn in place anticlockwise (the
+  // left wheel reverses), then clockwise (both reverse), then drive straight forwards (the
+  // right wheel reverses): each wheel loses exactly its b at each of its own reversals,
+  // however the cycles fall on the 5 cm spans.
+  const D b[2] = {0.008, 0.002};
+  const WheelBacklash e = onWheels<WheelBacklash>();
+  for (const D step : {0.003, 0.01, 0.013, 0.04, 0.07}) {
+    WheelMotionContext<D> ctx;
+    D lost_r = 0, lost_l = 0;
+    auto legs = {std::pair<D, D>{0.4, 0.2}, {0.3, -0.3}, {-0.3, 0.3}, {0.3, 0.3}};  // wheel travel R, L of a leg
+    int reversals_r = 0, reversals_l = 0;
+    for (const auto& [lr, ll] : legs) {
+      const int n = static_cast<int>(std::lround(std::max(std::abs(lr), std::abs(ll)) / step));
+      for (int i = 0; i < n; ++i) {
+        const D r = lr / n, l = ll / n;
+        const Increment<D> in{0.5 * (r + l), (r - l) / 0.5, 0};
+        const Increment<D> out = applyTo(in, b, ctx, e);
+        lost_r += std::abs(r) - std::abs(out.rho + 0.25 * out.theta);
+        lost_l += std::abs(l) - std::abs(out.rho - 0.25 * out.theta);
+        const int before_r = ctx.wheel_r.last_sign, before_l = ctx.wheel_l.last_sign;
+        ctx.wheel_r.advance(r);
+        ctx.wheel_l.advance(l);
+        reversals_r += before_r != 0 && before_r != ctx.wheel_r.last_sign;
+        reversals_l += before_l != 0 && before_l != ctx.wheel_l.last_sign;
+      }
+    }
+    EXPECT_EQ(reversals_r, 2);  // clockwise turn, straight run
+    EXPECT_EQ(reversals_l, 2);  // anticlockwise turn, clockwise turn
+    EXPECT_NEAR(lost_r, 2 * b[0], 1e-12) << "cycle length " << step;
+    EXPECT_NEAR(lost_l, 2 * b[1], 1e-12) << "cycle length " << step;
+  }
+}
+
+TEST(Effects, FilterCountsEachWheelsOwnReversals) {
+  // The AKF of a model with a per-wheel effect keeps each wheel's reversal odometer on the
+  // drive model's wheel travel; a model without one leaves them untouched (compile-time gate).
+  using MW = Model<DiffDrive<D>, SpeedScale, WheelBacklash>;
+  using MB = Model<DiffDrive<D>, Backlash>;
+  static_assert(MW::kHasWheelOdometers && !MB::kHasWheelOdometers);
+  static_assert(std::is_same_v<MB::Context, MotionContext<D>>);  // no storage either
+  static_assert(std::is_same_v<Model<DiffDrive<float>>::Context, MotionContext<float>>);
+  static_assert(!Model<DiffDrive<D>, WheelSpeedScale>::kHasWheelOdometers);  // it needs only the split
+  DiffDrive<D> drive;
+  drive.wheelbase = 0.5;
+  MW mw(drive);
+  setWheelbase(mw.effects, drive.wheelbase);
+  Akf<MW> akf{mw};
+  Akf<MB> akf_b{MB(drive)};
+  MW::StateVec x = MW::StateVec::Zero();
+  MW::setNominal(x);
+  akf.init(x, MW::StateVec::Constant(1e-4).asDiagonal());
+  MB::StateVec xb = MB::StateVec::Zero();
+  MB::setNominal(xb);
+  akf_b.init(xb, MB::StateVec::Constant(1e-4).asDiagonal());
+  const Eigen::Matrix<D, 1, 1> k(1e-6);
+  auto step = [&](D r, D l) {
+    ASSERT_EQ(akf.predict({r, l}, k, 0.02), Status::kOk);
+    ASSERT_EQ(akf_b.predict({r, l}, k, 0.02), Status::kOk);
+  };
+  for (int i = 0; i < 10; ++i) step(0.012, 0.008);  // a curve forwards: no reversal yet
+  const auto& c = akf.motionContext();
+  EXPECT_TRUE(std::isinf(c.wheel_r.s_rev));
+  EXPECT_TRUE(std::isinf(c.wheel_l.s_rev));
+  EXPECT_EQ(c.wheel_r.last_sign, 1);
+  EXPECT_EQ(c.wheel_l.last_sign, 1);
+  for (int i = 0; i < 3; ++i) step(0.011, -0.007);  // turning forwards: the left wheel reverses alone
+  EXPECT_TRUE(std::isinf(c.wheel_r.s_rev));
+  EXPECT_NEAR(c.wheel_l.s_rev, 0.021, 1e-12);
+  EXPECT_EQ(c.wheel_l.last_sign, -1);
+  EXPECT_TRUE(std::isinf(c.s_rev));  // the robot never reversed: rho > 0 throughout
+  for (int i = 0; i < 4; ++i) step(-0.01, 0.01);  // a turn in place the other way: both reverse
+  EXPECT_NEAR(c.wheel_r.s_rev, 0.04, 1e-12);
+  EXPECT_NEAR(c.wheel_l.s_rev, 0.04, 1e-12);
+  step(0, 0);  // no travel: no reversal
+  step(0.01, 0.005);  // forwards again: the right wheel reverses, the left goes on
+  EXPECT_NEAR(c.wheel_r.s_rev, 0.01, 1e-12);
+  EXPECT_NEAR(c.wheel_l.s_rev, 0.045, 1e-12);
+  EXPECT_NEAR(akf_b.motionContext().s_abs, c.s_abs, 1e-15);  // the robot's odometers alike
+}
+
 TEST(Effects, MotionPhysicsFollowsTheContract) {
-  const MotionContext<D> ctx = testContext();
+  const WheelMotionContext<D> ctx = testContext();
   const Increment<D> in{0.01, 0.005, 0};
   Eigen::Matrix<D, 3, 3> di;
   Eigen::Matrix<D, 3, 1> dp1;
@@ -87,7 +283,7 @@ TEST(Effects, MotionPhysicsFollowsTheContract) {
   // rotation_slip: dtheta *= 1 - k |w|
   EXPECT_NEAR(RotationSlip{}.apply(in, &k, ctx, di, dp1).theta, 0.005 * (1 - k * 0.25), 1e-15);
   // backlash: inside the 5 cm span the travel is scaled by 1 - b / 0.05; outside not
-  MotionContext<D> far = ctx;
+  WheelMotionContext<D> far = ctx;
   far.s_rev = 0.2;
   const D b = 0.004;
   EXPECT_NEAR(Backlash{}.apply(in, &b, ctx, di, dp1).rho, 0.01 * (1 - b / 0.05), 1e-15);
@@ -96,11 +292,11 @@ TEST(Effects, MotionPhysicsFollowsTheContract) {
   const Increment<D> back{-0.01, 0, 0};
   EXPECT_NEAR(Backlash{}.apply(back, &b, far, di, dp1).rho, -0.01 * (1 - b / 0.05), 1e-15);
   // a cycle that leaves the span loses only on its part inside it
-  MotionContext<D> edge = ctx;
+  WheelMotionContext<D> edge = ctx;
   edge.s_rev = 0.045;
   EXPECT_NEAR(Backlash{}.apply(in, &b, edge, di, dp1).rho, 0.01 - b * 0.005 / 0.05, 1e-15);
   // speed-dependent effects stay inactive when the cycle time is unknown
-  MotionContext<D> no_dt = ctx;
+  WheelMotionContext<D> no_dt = ctx;
   no_dt.dt = 0;
   EXPECT_DOUBLE_EQ(SpeedScale{}.apply(in, &k, no_dt, di, dp1).rho, 0.01);
   // region_scale: the cell of (4.2, 5.1) in a 3x3 grid over [0, 10]^2 is row 1, col 1
@@ -110,7 +306,7 @@ TEST(Effects, MotionPhysicsFollowsTheContract) {
   EXPECT_EQ(reg.cell(4.2, 5.1), 4);
   EXPECT_EQ(reg.cell(-3, 11), 6);  // clamped
   // odometers: a reversal resets s_rev; s_enc follows the encoders
-  MotionContext<D> m;
+  WheelMotionContext<D> m;
   m.advance(0.01, 0.011);
   m.advance(-0.01, -0.0105);
   EXPECT_NEAR(m.s_rev, 0.01, 1e-15);
@@ -123,7 +319,7 @@ TEST(Effects, BacklashLosesExactlyBPerReversalWhateverTheCycleLength) {
   // after the reversal is b, however the cycles fall on the 5 cm span.
   const D b = 0.01;
   for (const D step : {0.003, 0.01, 0.013, 0.04, 0.07}) {
-    MotionContext<D> ctx;
+    WheelMotionContext<D> ctx;
     Eigen::Matrix<D, 3, 3> di;
     Eigen::Matrix<D, 3, 1> dp;
     D lost = 0;

@@ -120,6 +120,19 @@ bool simulateEffectDrive(const EffectSimConfig& cfg, std::string* text, std::str
       return false;
     }
   }
+  if (sync) {  // the sync drive has no separately driven wheels (docs/effect-catalogue.md)
+    std::string per_wheel;
+    forEachEffect([&](auto e) {
+      using E = decltype(e);
+      if constexpr (std::is_base_of_v<effects::PerWheel, E>) {
+        if (cfg.effects.count(E::kName) != 0) per_wheel = E::kName;
+      }
+    });
+    if (!per_wheel.empty()) {
+      *error = "effect '" + per_wheel + "' acts on the wheels of the differential drive; the sync drive has none";
+      return false;
+    }
+  }
   auto param = [&](const char* name, int i) {
     const auto it = cfg.effects.find(name);
     return it == cfg.effects.end() ? 0.0 : it->second[static_cast<std::size_t>(i)];
@@ -166,6 +179,8 @@ bool simulateEffectDrive(const EffectSimConfig& cfg, std::string* text, std::str
   region.y_min = 0;
   region.x_max = 10;
   region.y_max = 10;
+  effects::PerWheel wheels;  // the per-wheel effects' wheelbase and split (diff drive only)
+  wheels.wheelbase = kWheelbase;
 
   std::string& out = *text;
   out.clear();
@@ -206,7 +221,7 @@ bool simulateEffectDrive(const EffectSimConfig& cfg, std::string* text, std::str
   std::mt19937_64 rng(cfg.seed * 0x9E3779B97F4A7C15ull + 17);
   std::normal_distribution<double> n01(0.0, 1.0);
   Pose<double> plan = truth;
-  MotionContext<double> ctx;
+  WheelMotionContext<double> ctx;  // what every catalogue effect may depend on
   ctx.dt = kDt;
   std::vector<Pose<double>> history{truth};
   double pos_a = 0, pos_b = 0;
@@ -276,7 +291,7 @@ bool simulateEffectDrive(const EffectSimConfig& cfg, std::string* text, std::str
     ctx.x = truth.x;
     ctx.y = truth.y;
     ctx.setHeading(truth.theta);  // the heading at the cycle's start (feature effects)
-    const double drive_rho = inc.rho;  // the travel totals count the increment before the effects
+    const Increment<double> drive_inc = inc;  // the travel totals count the increment before the effects
     forEachEffect([&](auto e) {
       using E = decltype(e);
       if constexpr (E::kKind == EffectKind::kMotion) {
@@ -285,13 +300,20 @@ bool simulateEffectDrive(const EffectSimConfig& cfg, std::string* text, std::str
         E inst{};
         if constexpr (std::is_same_v<E, effects::WheelEccentricity>) inst = ecc;
         if constexpr (std::is_same_v<E, effects::RegionScale>) inst = region;
+        if constexpr (std::is_base_of_v<effects::PerWheel, E>) inst.wheelbase = wheels.wheelbase;
         Eigen::Matrix3d d_in;
         Eigen::Matrix<double, 3, E::kParams> d_p;
         inc = inst.apply(inc, it->second.data(), ctx, d_in, d_p);
       }
     });
     const double turn_noise = q_turn > 0 ? std::sqrt(q_turn * std::abs(inc.theta)) * n01(rng) : 0.0;
-    ctx.advance(drive_rho, sync ? da : 0.5 * (da + db));
+    ctx.advance(drive_inc.rho, sync ? da : 0.5 * (da + db));
+    if (!sync) {  // each wheel's own reversal odometer (per-wheel effects)
+      double r, l;
+      wheels.wheels(drive_inc, &r, &l);
+      ctx.wheel_r.advance(r);
+      ctx.wheel_l.advance(l);
+    }
     inc.rho += noise.rho;
     inc.theta += noise.theta + turn_noise;
     inc.side += noise.side;

@@ -117,10 +117,10 @@ class Akf {
     }
     Increment<S> inc;
     Eigen::Matrix<S, 3, 3> d_inc;
-    S drive_rho = S(0);  // the drive model's translation before the effects (the travel totals)
+    Increment<S> drive_inc;  // the drive model's increment before the effects (the travel totals)
     const Pose<S> next = transitionCS(model_, x_, u, ctx_, c, sn, &f_pose, &g_pose, &inc,
                                         Model::kHasNoiseEffects ? &d_inc : nullptr,
-                                        Model::kHasEffects ? &drive_rho : nullptr);
+                                        Model::kHasEffects ? &drive_inc : nullptr);
     const typename Model::NoiseVec q = model_.drive.noiseVariance(u, k);
 
     // P' = F P F^T + G Q G^T, with F = [f_pose; 0 I] and G = [g_pose; 0].
@@ -152,7 +152,7 @@ class Akf {
     if constexpr (Model::kHasEffects) {
       // the travel totals count the drive model's increment, before the effects (a
       // backlash span counted in scaled travel lasted 25 % longer than its 5 cm)
-      ctx_.advance(drive_rho, Model::Drive::encoderTravel(u));
+      model_.advanceContext(ctx_, drive_inc, Model::Drive::encoderTravel(u));
       if (dt > S(0)) {  // a cycle of unknown duration keeps the last velocity
         const S inv_dt = S(1) / dt;
         vel_x_ = (next.x - ctx_.x) * inv_dt;
@@ -224,20 +224,20 @@ class Akf {
     S sn;
     sinCos(x[PoseIdx::kTheta], &sn, &c);
     Increment<S> inc;
-    return transitionCS(model, x, u, MotionContext<S>{}, c, sn, f_pose, g_pose, &inc);
+    return transitionCS(model, x, u, typename Model::Context{}, c, sn, f_pose, g_pose, &inc);
   }
 
   /// The same in a motion context, with cos/sin of the heading given; also returns the
-  /// increment and, optionally, d pose / d increment and the drive model's translation
+  /// increment and, optionally, d pose / d increment and the drive model's increment
   /// before the effects.
   static Pose<S> transitionCS(const Model& model, const StateVec& x, const Input& u,
-                              const MotionContext<S>& ctx, S c, S sn, Eigen::Matrix<S, 3, N>* f_pose,
+                              const typename Model::Context& ctx, S c, S sn, Eigen::Matrix<S, 3, N>* f_pose,
                               Eigen::Matrix<S, 3, Model::kNoise>* g_pose, Increment<S>* inc_out,
-                              Eigen::Matrix<S, 3, 3>* d_inc_out = nullptr, S* drive_rho = nullptr) {
+                              Eigen::Matrix<S, 3, 3>* d_inc_out = nullptr, Increment<S>* drive_inc = nullptr) {
     Eigen::Matrix<S, 3, N> d_state;
     Eigen::Matrix<S, 3, Model::kNoise> d_noise;
     const typename Model::NoiseVec zero = Model::NoiseVec::Zero();
-    const Increment<S> inc = model.increment(u, x, zero, ctx, &d_state, &d_noise, drive_rho);
+    const Increment<S> inc = model.increment(u, x, zero, ctx, &d_state, &d_noise, drive_inc);
     IncrementJacobians<S> jp;
     const Pose<S> p{x[PoseIdx::kX], x[PoseIdx::kY], x[PoseIdx::kTheta]};
     // cos/sin of the mid-point heading theta + dtheta/2 by a small rotation.
@@ -414,7 +414,7 @@ class Akf {
   S velocityX() const { return vel_x_; }
   S velocityY() const { return vel_y_; }
   S turnRate() const { return vel_w_; }
-  const MotionContext<S>& motionContext() const { return ctx_; }
+  const typename Model::Context& motionContext() const { return ctx_; }
 
  private:
   /// A state held constant: its variance is exactly zero and so is its gain (a parameter
@@ -613,7 +613,7 @@ class Akf {
   StateMat p_ = StateMat::Identity();
   AkfCounters counters_{};
   // What effects depend on (unused, and never touched, in a model without effects).
-  MotionContext<S> ctx_{};
+  typename Model::Context ctx_{};
   S vel_x_ = S(0);
   S vel_y_ = S(0);
   S vel_w_ = S(0);

@@ -43,6 +43,22 @@ namespace odoerr {
 
 enum class EffectKind { kMotion, kMeasurement, kNoise };
 
+/// The reversal odometer of one gear train (one wheel of the differential drive): the sign
+/// of its last non-zero travel and its |travel| since that sign last changed.
+template <typename S>
+struct ReversalOdometer {
+  S s_rev = std::numeric_limits<S>::infinity();  ///< |travel| since the last reversal (m)
+  int last_sign = 0;                              ///< sign of the last non-zero travel
+
+  /// Advances past a cycle whose travel was t (a travel of 0 is no reversal).
+  void advance(S t) {
+    const int sign = t > S(0) ? 1 : (t < S(0) ? -1 : 0);
+    if (sign != 0 && last_sign != 0 && sign != last_sign) s_rev = S(0);
+    if (sign != 0) last_sign = sign;
+    s_rev += std::abs(t);
+  }
+};
+
 /// What a motion or noise effect may depend on besides the increment itself: the cycle's
 /// duration (speeds are rho / dt, dtheta / dt; 0 = unknown, speed-dependent effects then
 /// stay inactive), the travel so far and the pose at the start of the cycle.
@@ -81,6 +97,24 @@ struct MotionContext {
     s_rev += std::abs(rho);
   }
 };
+
+/// The motion context of a model with an effect that needs each wheel's own reversals
+/// (differential drive; the drive model's increment split as R = rho + dtheta d / 2,
+/// L = rho - dtheta d / 2 by the effect's wheels()). Only such models use it: the others,
+/// the firmware's among them, keep the plain MotionContext, neither larger nor slower.
+template <typename S>
+struct WheelMotionContext : MotionContext<S> {
+  ReversalOdometer<S> wheel_r{};  ///< the right wheel's own reversal odometer
+  ReversalOdometer<S> wheel_l{};  ///< the left wheel's
+};
+
+/// Whether an effect needs the wheels' reversal odometers: it declares
+/// `static constexpr bool kWheelOdometers = true`, `wheels(increment, &right, &left)` (the
+/// split), and takes a `const WheelMotionContext<S>&` in apply().
+template <typename E, typename = void>
+struct UsesWheelOdometers : std::false_type {};
+template <typename E>
+struct UsesWheelOdometers<E, std::void_t<decltype(E::kWheelOdometers)>> : std::bool_constant<E::kWheelOdometers> {};
 
 /// Where a beam's ray starts and points, relative to the nominal set-up: a shift of the
 /// laser position (world frame, m) and a rotation of the ray (rad). Measurement effects
@@ -142,10 +176,17 @@ class Model {
   /// Some effect reads MotionContext::heading / cos_heading / sin_heading: only then does
   /// the filter fill them (a model without such an effect pays nothing per cycle).
   static constexpr bool kUsesHeading = (false || ... || model_detail::UsesHeading<Effects>::value);
+  /// Some effect needs each wheel's reversals: the motion context is a WheelMotionContext
+  /// and its wheel odometers are advanced (compile-time gate: models without such an effect,
+  /// the firmware's among them, neither store nor compute them).
+  static constexpr bool kHasWheelOdometers = (false || ... || UsesWheelOdometers<Effects>::value);
   static constexpr int kParams = Drive::kParams + kEffectParams;
   static constexpr int kStates = PoseIdx::kDim + kParams;
   static constexpr int kNoise = Drive::kNoise;
   static constexpr int kNonSys = Drive::kNonSys;
+
+  /// What the motion effects of this model depend on.
+  using Context = std::conditional_t<kHasWheelOdometers, WheelMotionContext<S>, MotionContext<S>>;
 
   using StateVec = Eigen::Matrix<S, kStates, 1>;
   using StateMat = Eigen::Matrix<S, kStates, kStates>;
@@ -158,7 +199,10 @@ class Model {
   }
 
   Drive drive{};
-  std::tuple<Effects...> effects{};
+  // Each effect constructed on its own: GCC 12 value-initialises a std::tuple that starts
+  // with an empty effect by zeroing storage it shares with the next one, which wiped the
+  // default members of configured effects (WheelEccentricity's wheel_radius read 0).
+  std::tuple<Effects...> effects{Effects{}...};
 
   Model() = default;
   explicit Model(const Drive& d) : drive(d) {}
@@ -174,18 +218,25 @@ class Model {
   Increment<S> increment(const Input& u, const StateVec& x, const NoiseVec& nu,
                          Eigen::Matrix<S, 3, kStates>* d_state = nullptr,
                          Eigen::Matrix<S, 3, kNoise>* d_noise = nullptr) const {
-    return increment(u, x, nu, MotionContext<S>{}, d_state, d_noise);
+    return increment(u, x, nu, Context{}, d_state, d_noise);
   }
 
-  /// The same in a motion context (what the motion effects depend on). drive_rho (may be
-  /// nullptr) receives the drive model's translation before any effect: what the travel
-  /// totals of the motion context count (docs/effect-catalogue.md).
+  /// The same in a motion context (what the motion effects depend on). drive_inc (may be
+  /// nullptr) receives the drive model's increment before any effect, what the travel
+  /// totals of the motion context count (docs/effect-catalogue.md; advanceContext): its rho,
+  /// and its theta in a model with wheel odometers (the other members are left as they are).
   Increment<S> increment(const Input& u, const StateVec& x, const NoiseVec& nu,
-                         const MotionContext<S>& ctx, Eigen::Matrix<S, 3, kStates>* d_state,
-                         Eigen::Matrix<S, 3, kNoise>* d_noise, S* drive_rho = nullptr) const {
+                         const Context& ctx, Eigen::Matrix<S, 3, kStates>* d_state,
+                         Eigen::Matrix<S, 3, kNoise>* d_noise, Increment<S>* drive_inc = nullptr) const {
     const auto p = x.template segment<Drive::kParams>(kDriveOffset);
     Increment<S> inc = drive.increment(u, p, nu);
-    if (drive_rho != nullptr) *drive_rho = inc.rho;
+    if (drive_inc != nullptr) {
+      // Only what advanceContext reads: copying the whole increment in every model (the
+      // firmware's, which passes nullptr, included) changed how GCC compiled the cycle and
+      // cost 22 instructions per cycle on the Cortex-M4F.
+      drive_inc->rho = inc.rho;
+      if constexpr (kHasWheelOdometers) drive_inc->theta = inc.theta;
+    }
     if (d_state != nullptr) {
       d_state->setZero();
       d_state->template block<3, Drive::kParams>(0, kDriveOffset) = drive.dIncDParams(u, p);
@@ -193,6 +244,33 @@ class Model {
     }
     applyEffects(x, ctx, inc, d_state, d_noise, std::index_sequence_for<Effects...>{});
     return inc;
+  }
+
+  /// Advances the motion context's odometers past a cycle: drive_inc is the drive model's
+  /// increment before the effects, enc the encoders' signed travel. The wheel odometers only
+  /// when an effect needs them (split by the first such effect's wheels()).
+  void advanceContext(Context& ctx, const Increment<S>& drive_inc, S enc) const {
+    ctx.advance(drive_inc.rho, enc);
+    if constexpr (kHasWheelOdometers) {
+      S r = drive_inc.rho;
+      S l = drive_inc.rho;
+      bool split = false;
+      std::apply(
+          [&](const auto&... e) {
+            (
+                [&](const auto& eff) {
+                  using E = std::decay_t<decltype(eff)>;
+                  if constexpr (UsesWheelOdometers<E>::value) {
+                    if (!split) eff.wheels(drive_inc, &r, &l);
+                    split = true;
+                  }
+                }(e),
+                ...);
+          },
+          effects);
+      ctx.wheel_r.advance(r);
+      ctx.wheel_l.advance(l);
+    }
   }
 
   /// Extra variances of (rho, theta, side) from the noise effects for this increment.
@@ -275,7 +353,7 @@ class Model {
   }
 
   template <std::size_t... I>
-  void applyEffects(const StateVec& x, const MotionContext<S>& ctx, Increment<S>& inc,
+  void applyEffects(const StateVec& x, const Context& ctx, Increment<S>& inc,
                     Eigen::Matrix<S, 3, kStates>* d_state, Eigen::Matrix<S, 3, kNoise>* d_noise,
                     std::index_sequence<I...>) const {
     (void)x;  // unused when the model has no effects
@@ -285,7 +363,7 @@ class Model {
     (applyOne(std::get<I>(effects), x, ctx, inc, d_state, d_noise), ...);
   }
   template <typename E>
-  void applyOne(const E& e, const StateVec& x, const MotionContext<S>& ctx, Increment<S>& inc,
+  void applyOne(const E& e, const StateVec& x, const Context& ctx, Increment<S>& inc,
                 Eigen::Matrix<S, 3, kStates>* d_state, Eigen::Matrix<S, 3, kNoise>* d_noise) const {
     if constexpr (E::kKind == EffectKind::kMotion) {
       constexpr int off = offsetOf<E>();

@@ -340,7 +340,7 @@ std::vector<LaserPose> Discovery<En>::smoothed(const std::vector<LaserPose>& lp,
   if (post.empty()) return lp;
   // the odometry chain: the pose after every event, from an arbitrary start
   std::vector<Pose<double>> chain(ev.size());
-  MotionContext<double> ctx;
+  typename En::M::Context ctx;
   Pose<double> o{post.front().x, post.front().y, post.front().th};
   const typename En::M::NoiseVec nu0 = En::M::NoiseVec::Zero();
   for (std::size_t k = 0; k < ev.size(); ++k) {
@@ -349,11 +349,11 @@ std::vector<LaserPose> Discovery<En>::smoothed(const std::vector<LaserPose>& lp,
     ctx.x = o.x;
     ctx.y = o.y;
     ctx.setHeading(o.theta);
-    double drive_rho = 0;
-    const Increment<double> inc = model.increment(u, x, nu0, ctx, nullptr, nullptr, &drive_rho);
+    Increment<double> drive_inc;
+    const Increment<double> inc = model.increment(u, x, nu0, ctx, nullptr, nullptr, &drive_inc);
     o = applyIncrement(o, inc);
     chain[k] = o;
-    ctx.advance(drive_rho, Drive::encoderTravel(u));
+    model.advanceContext(ctx, drive_inc, Drive::encoderTravel(u));
   }
   std::vector<LaserPose> out = lp;
   for (std::size_t i = 0; i < post.size(); ++i) {
@@ -462,7 +462,7 @@ Residuals Discovery<En>::analyse(const RunOut& run, Scales* scales) const {
     Eigen::MatrixXd a;  // 3 x terms
   };
   std::vector<Seg> segs;
-  MotionContext<S> ctx;
+  typename M::Context ctx;
   int last_sign[3] = {0, 0, 0};  // robot, right wheel, left wheel
   std::size_t next_bound = 0;
   Pose<S> pp{};
@@ -477,8 +477,8 @@ Residuals Discovery<En>::analyse(const RunOut& run, Scales* scales) const {
     ctx.x = pp.x;
     ctx.y = pp.y;
     ctx.setHeading(pp.theta);
-    S drive_rho = 0;
-    const Increment<S> inc = model.increment(u, x, nu0, ctx, nullptr, nullptr, &drive_rho);
+    Increment<S> drive_inc;
+    const Increment<S> inc = model.increment(u, x, nu0, ctx, nullptr, nullptr, &drive_inc);
     const Increment<S> dinc = model.drive.increment(u, p, nu0);
     if (in_seg) {
       // every term's displacement at this cycle, per unit coefficient
@@ -515,7 +515,7 @@ Residuals Discovery<En>::analyse(const RunOut& run, Scales* scales) const {
       const int sg = tr > 0 ? 1 : (tr < 0 ? -1 : 0);
       if (sg != 0) last_sign[w] = sg;
     }
-    ctx.advance(drive_rho, Drive::encoderTravel(u));
+    model.advanceContext(ctx, drive_inc, Drive::encoderTravel(u));
     // A boundary: close the open segment, open the next.
     if (next_bound < bounds.size() && post[static_cast<std::size_t>(bounds[next_bound])].event == static_cast<int>(k)) {
       const LaserPose& q = lp[static_cast<std::size_t>(bounds[next_bound])];

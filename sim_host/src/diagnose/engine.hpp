@@ -238,6 +238,7 @@ class Engine {
   /// The model: the drive and every catalogue effect, configured from the log.
   M makeModel() const {
     M m(drive_);
+    effects::setWheelbase(m.effects, kSync ? 0.0 : log_.param("wheelbase_m", 0.5));  // per-wheel effects: none on sync
     auto& ecc = std::get<effects::WheelEccentricity>(m.effects);
     ecc.wheel_radius = log_.param("wheel_radius_m", 0.05);
     auto& reg = std::get<effects::RegionScale>(m.effects);

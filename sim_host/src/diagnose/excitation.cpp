@@ -24,6 +24,11 @@ const char* adviceFor(const std::string& name) {
   if (name == "laser_mount_xy" || name == "laser_mount_yaw") return "turn in place and along curves near walls";
   if (name == "scan_latency") return "turn and drive at higher speed (latency shows only while moving)";
   if (name == "wall_offset") return "see every wall from several distances and angles";
+  if (name == "wheel_speed_scale")
+    return "turn at several speeds both ways and turn in place, so each wheel runs at several speeds (differential drive only)";
+  if (name == "wheel_backlash")
+    return "reverse each wheel many times: turns in place both ways and tight turns while driving, not only straight "
+           "reversals (differential drive only)";
   return "vary the motion";
 }
 

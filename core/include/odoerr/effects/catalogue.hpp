@@ -10,9 +10,25 @@
 
 namespace odoerr::effects {
 
-using Catalogue = std::tuple<TurnSlip, RotationSlip, SpeedScale, WheelEccentricity, Backlash, RegionScale,
-                             RadiusDrift, TurnNoise, RangeBias, RangeScale, LaserMountXY, LaserMountYaw,
-                             ScanLatency, WallOffset>;
+using Catalogue = std::tuple<TurnSlip, RotationSlip, SpeedScale, WheelSpeedScale, WheelEccentricity, Backlash,
+                             WheelBacklash, RegionScale, RadiusDrift, TurnNoise, RangeBias, RangeScale,
+                             LaserMountXY, LaserMountYaw, ScanLatency, WallOffset>;
+
+/// Configures the per-wheel effects (PerWheel) of a composed model's effect tuple with the
+/// drive's nominal wheelbase: DiffDrive::wheelbase, or 0 for a drive without separately
+/// driven wheels (the sync drive), which makes them no-ops.
+template <typename... E>
+void setWheelbase(std::tuple<E...>& effects, double wheelbase) {
+  std::apply(
+      [&](auto&... e) {
+        (
+            [&](auto& eff) {
+              if constexpr (std::is_base_of_v<PerWheel, std::decay_t<decltype(eff)>>) eff.wheelbase = wheelbase;
+            }(e),
+            ...);
+      },
+      effects);
+}
 
 /// Effects whose priors are configured per instance (kConfiguredPrior, e.g. the feature
 /// effects of feature_effects.hpp): their coefficients' units depend on the configuration.
