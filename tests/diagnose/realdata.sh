@@ -18,7 +18,7 @@ run="$data/circular/231220200121/231220200121_run-01.csv"
 import json, sys
 j = json.load(open(sys.argv[1]))
 assert j["verdict"] in ("consistent", "inconsistent")
-assert len(j["ranking"]) == 16, len(j["ranking"])
+assert len(j["ranking"]) == 15, len(j["ranking"])
 assert j["heldout"] and j["heldout"]["before"]["pose_rmse_m"] is not None
 p = j["baseline"]["parameters"]
 for k in ("delta_R", "delta_L", "delta_d"):

@@ -31,16 +31,10 @@ namespace odoerr::sim::diag {
 
 using effects::Catalogue;
 
-template <typename A, typename B>
-struct Concat;
-template <typename... A, typename... B>
-struct Concat<std::tuple<A...>, std::tuple<B...>> {
-  using type = std::tuple<A..., B...>;
-};
 /// The catalogue and the feature effects: the model of `--with feature:...` and `--with auto`.
 using FeatureMotionE = effects::FeatureMotion<4>;
 using FeatureRangeE = effects::FeatureRange<4>;
-using Featured = typename Concat<Catalogue, std::tuple<FeatureMotionE, FeatureRangeE>>::type;
+using Featured = typename effects::TupleCat<Catalogue, std::tuple<FeatureMotionE, FeatureRangeE>>::type;
 
 /// The feature effects' slots (a discovery put into the model): at most 4 of each.
 struct FeatureSlots {
