@@ -165,6 +165,7 @@ def run_record(ptype, set_id, run_no, csv_path, j, desc, cycles):
         "source": os.path.relpath(csv_path, os.path.dirname(os.path.dirname(os.path.dirname(csv_path)))),
         **desc,
         "verdict": j.get("verdict"), "named": named,
+        "top_ranked": ((j.get("ranking") or [{}])[0]).get("effect"),
         "segments": motion.get("segments"), "features": feats,
         "features_explain": motion.get("features_explain"),
         "cross_drift_per_m": cross_drift_per_m(feats, cycles),
@@ -252,7 +253,7 @@ def main():
                     d.update({"source_type": src, "token": tok, "kept_on_source_runs": counts[tok],
                               "target": rec["name"], "target_type": rec["path_type"],
                               "target_motion": rec["motion"] + ("" if rec["motion"] != "straight" else
-                                                                         " %.0f s" % rec["duration_s"]), "target_own_auto": rec["auto_final_with"],
+                                                                         " %.1f m" % (0.5 * round(2 * rec["travel_m"]))), "target_own_auto": rec["auto_final_with"],
                               "estimates": [f.get("after_estimate") for f in (h or {}).get("fits") or []
                                             if f.get("used")]})
                     cross.append(d)
@@ -447,9 +448,13 @@ def tables_md(runs, cross):
             k = (c["source_type"], c["token"], c["target_type"], c["target_motion"])
             if k not in keys:
                 keys.append(k)
+        no_block = {}
         for k in keys:
             cs = [c for c in cross if (c["source_type"], c["token"], c["target_type"], c["target_motion"]) == k]
             ev = [c for c in cs if (c["blocks"] or 0) > 0 and c["pose_z"] is not None]
+            if not ev:
+                no_block.setdefault((k[2], k[3]), len(cs))
+                continue
             pz = [c["pose_z"] for c in ev]
             fall_p = sum(1 for c in ev if c["pose_z"] <= -2)
             fall_n = sum(1 for c in ev if c["nll_z"] is not None and c["nll_z"] <= -2)
@@ -462,6 +467,52 @@ def tables_md(runs, cross):
                 rng([c["blocks"] for c in ev], "%d") if ev else "0",
                 ("%s (%s)" % (med(pz, "%.1f"), rng(pz, "%.1f"))) if ev else "no held-out block",
                 ("%s → %s" % (med(b, "%.1f"), med(a, "%.1f"))) if b and a else "n/a"))
+        L.append("")
+        for (tt, tm), n in no_block.items():
+            L.append("Not in the table: the %d %s %s runs, which have no held-out block (no comparison "
+                     "is possible there).\n" % (n, tt, tm))
+        # Which single form predicts best, per target run.
+        L.append("### Which form predicts best on each run (lowest held-out pose RMSE among the tokens "
+                 "tested on it; ties count for each)\n")
+        L.append("| tested on | runs | wins per token |")
+        L.append("|---|---|---|")
+        groups = {}
+        for c in cross:
+            if (c["blocks"] or 0) > 0 and c["pose_rmse_after_m"] is not None:
+                groups.setdefault((c["target_type"], c["target_motion"]), {}).setdefault(c["target"], []).append(c)
+        for (tt, tm), byrun in groups.items():
+            wins = {}
+            for cs in byrun.values():
+                best = min(c["pose_rmse_after_m"] for c in cs)
+                for c in cs:
+                    if c["pose_rmse_after_m"] <= best + 1e-12:
+                        t = c["token"].replace("feature:", "")
+                        wins[t] = wins.get(t, 0) + 1
+            L.append("| %s %s | %d | %s |" % (tt, tm, len(byrun), ", ".join(
+                "`%s` %d" % kv for kv in sorted(wins.items(), key=lambda kv: -kv[1]))))
+        L.append("")
+        # One form on every run: the sideways drift as `ds@cross`, re-fitted per run.
+        L.append("### One form on every run: `ds@cross` re-fitted on each run's own data\n")
+        L.append("The coefficient (m of sideways travel, left positive, per m of travel; shown in mm/m) that "
+                 "the held-out comparison's fits found, the median of a run's fold fits, then the median "
+                 "and range over the runs.\n")
+        L.append("| path type | motion | day | direction | runs | median (mm/m) | range (mm/m) |")
+        L.append("|---|---|---|---|---|---|---|")
+        rows, seen = {}, set()
+        for c in cross:
+            if c["token"] != "feature:ds@cross" or not c["estimates"] or c["target"] in seen:
+                continue  # the fit on a run does not depend on where the token was chosen
+            seen.add(c["target"])
+            v = sorted(e["feature_motion"][0] for e in c["estimates"] if e and e.get("feature_motion"))
+            if not v:
+                continue
+            run = next(r for r in runs if r["name"] == c["target"])
+            dname = "CW" if run["net_rotation_deg"] < -45 else ("CCW" if run["net_rotation_deg"] > 45 else "—")
+            rows.setdefault((run["path_type"], c["target_motion"], run["set"][:8], dname), []).append(
+                1e3 * statistics.median(v))
+        for k in sorted(rows):
+            L.append("| %s | %s | %s | %s | %d | %s | %s |" % (*k, len(rows[k]), med(rows[k], "%+.1f"),
+                                                               rng(rows[k], "%+.1f")))
         L.append("")
     return "\n".join(L) + "\n"
 
