@@ -117,9 +117,11 @@ def cross_drift_per_m(features, cycles):
     return total / travel
 
 
-def odoerr_diagnose(args, log, out_json, with_):
+def odoerr_diagnose(args, log, out_json, with_, out_dir=None):
     cmd = ["nice", "-n", str(args.nice), args.odoerr, "diagnose", log, "--json", out_json,
            "--with", with_, "--threads", str(args.threads)]
+    if out_dir:
+        cmd += ["--out", out_dir]
     r = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     if r.returncode != 0:
         die("failed (%d): %s\n%s" % (r.returncode, " ".join(cmd), r.stderr.strip()), 1)
@@ -178,6 +180,65 @@ def run_record(ptype, set_id, run_no, csv_path, j, desc, cycles):
     }
 
 
+def read_heldout_csv(path):
+    with open(path) as f:
+        return [(float(r["t"]), float(r["pose_err_m"])) for r in csv.DictReader(f) if r["pose_err_m"] not in ("", "nan")]
+
+
+def paired_block_z(blocks, before, after):
+    """Each block's mean pose error, after minus before, over the blocks both predicted; the
+    mean change over its standard error (the definition of diagnose's `paired.change_z`)."""
+    d = []
+    for t0, t1 in blocks:
+        b = [e for t, e in before if t0 <= t < t1]
+        a = [e for t, e in after if t0 <= t < t1]
+        if b and a:
+            d.append(sum(a) / len(a) - sum(b) / len(b))
+    if len(d) < 2:
+        return None, len(d), 0
+    sd = statistics.stdev(d)
+    better = sum(1 for x in d if x < 0)
+    return (statistics.mean(d) / (sd / math.sqrt(len(d))) if sd > 0 else None), len(d), better
+
+
+def backlash_check(args, out, runs):
+    """Square runs: the catalogue's wheel_backlash (a) alone against the model as it is, and (b)
+    on top of the sideways drift `ds@cross`: the second increment is paired block by block from
+    the per-scan held-out files (diagnose itself compares only against the model without --with)."""
+    res = []
+    for rec in runs:
+        if rec["path_type"] != "square":
+            continue
+        base = os.path.join(out, "backlash", rec["name"])
+        for sub in ("wb", "ds", "wb_ds"):
+            os.makedirs(os.path.join(base, sub), exist_ok=True)
+        ja = odoerr_diagnose(args, rec["log"], os.path.join(base, "wb", "d.json"), "wheel_backlash")
+        jb = odoerr_diagnose(args, rec["log"], os.path.join(base, "ds", "d.json"), "feature:ds@cross",
+                             os.path.join(base, "ds"))
+        jc = odoerr_diagnose(args, rec["log"], os.path.join(base, "wb_ds", "d.json"),
+                             "wheel_backlash,feature:ds@cross", os.path.join(base, "wb_ds"))
+        ha, hb, hc = ja.get("heldout") or {}, jb.get("heldout") or {}, jc.get("heldout") or {}
+        a = summarise_heldout(ha, ha.get("paired"))
+        est = [f["after_estimate"].get("wheel_backlash") for f in ha.get("fits") or [] if f.get("used")]
+        est = [e for e in est if e]
+        b_before = read_heldout_csv(os.path.join(base, "ds", "heldout_before.csv"))
+        b_after = read_heldout_csv(os.path.join(base, "ds", "heldout_after.csv"))
+        c_after = read_heldout_csv(os.path.join(base, "wb_ds", "heldout_after.csv"))
+        check_z, _, _ = paired_block_z(hb.get("blocks") or [], b_before, b_after)
+        inc_z, inc_n, inc_better = paired_block_z(hb.get("blocks") or [], b_after, c_after)
+        res.append({"run": rec["name"], "direction": "CW" if rec["net_rotation_deg"] < 0 else "CCW",
+                    "wb_pose_z": a["pose_z"], "wb_nll_z": a["nll_z"],
+                    "wb_rmse_before_m": a["pose_rmse_before_m"], "wb_rmse_after_m": a["pose_rmse_after_m"],
+                    "b_R": statistics.median(e[0] for e in est) if est else None,
+                    "b_L": statistics.median(e[1] for e in est) if est else None,
+                    "ds_rmse_after_m": (hb.get("after") or {}).get("pose_rmse_m"),
+                    "ds_pose_z_tool": z(hb.get("paired"), "pose_err_m"), "ds_pose_z_script": check_z,
+                    "wb_ds_rmse_after_m": (hc.get("after") or {}).get("pose_rmse_m"),
+                    "wb_ds_pose_z_vs_base": z(hc.get("paired"), "pose_err_m"),
+                    "increment_z": inc_z, "increment_blocks": inc_n, "increment_blocks_better": inc_better})
+    return res
+
+
 def fnum(v, fmt="%.4f"):
     return "" if v is None else fmt % v
 
@@ -199,7 +260,7 @@ def main():
         with open(os.path.join(args.out_dir, "summary.json")) as f:
             sj = json.load(f)
         with open(os.path.join(args.out_dir, "tables.md"), "w") as f:
-            f.write(tables_md(sj["runs"], sj["cross"]))
+            f.write(tables_md(sj["runs"], sj["cross"], sj.get("backlash") or []))
         return 0
 
     if not os.path.isdir(args.data):
@@ -260,14 +321,15 @@ def main():
             print("cross: %s -> others: %d tokens kept on >= %d %s runs" % (src, len(tokens), args.min_kept, src),
                   flush=True)
 
-    write_outputs(out, runs, cross, args)
+    backlash = [] if args.no_cross else backlash_check(args, out, runs)
+    write_outputs(out, runs, cross, args, backlash)
     return 0
 
 
-def write_outputs(out, runs, cross, args):
+def write_outputs(out, runs, cross, args, backlash):
     with open(os.path.join(out, "summary.json"), "w") as f:
-        json.dump({"runs": runs, "cross": cross, "options": {"threads": args.threads, "min_kept": args.min_kept}},
-                  f, indent=1)
+        json.dump({"runs": runs, "cross": cross, "backlash": backlash,
+                   "options": {"threads": args.threads, "min_kept": args.min_kept}}, f, indent=1)
     cols = ["path_type", "set", "run", "motion", "duration_s", "travel_m", "rotation_deg", "net_rotation_deg",
             "mean_speed_mps", "verdict", "named", "segments", "features", "cross_drift_per_m", "change_points",
             "auto_final_with", "auto_steps_kept", "first_step_pose_z", "first_step_nll_z",
@@ -313,7 +375,7 @@ def write_outputs(out, runs, cross, args):
                         fnum(c["pose_rmse_after_m"], "%.5f"), c["folds_failed"], c["note"] or "",
                         ",".join(c["target_own_auto"])])
     with open(os.path.join(out, "tables.md"), "w") as f:
-        f.write(tables_md(runs, cross))
+        f.write(tables_md(runs, cross, backlash))
 
 
 def med(xs, fmt):
@@ -326,7 +388,7 @@ def rng(xs, fmt):
     return ("%s to %s" % (fmt % min(xs), fmt % max(xs))) if xs else "n/a"
 
 
-def tables_md(runs, cross):
+def tables_md(runs, cross, backlash=()):
     L = []
     # 1. Per path type.
     L.append("### Per path type\n")
@@ -513,6 +575,28 @@ def tables_md(runs, cross):
         for k in sorted(rows):
             L.append("| %s | %s | %s | %s | %d | %s | %s |" % (*k, len(rows[k]), med(rows[k], "%+.1f"),
                                                                rng(rows[k], "%+.1f")))
+        L.append("")
+    if backlash:
+        L.append("### Square runs: the catalogue's `wheel_backlash`\n")
+        L.append("(a) `--with wheel_backlash` against the model as it is (diagnose's paired z); (b) on top of "
+                 "`ds@cross`: held-out pose RMSE with `ds@cross` alone and with both, and the increment's "
+                 "paired z over the blocks, computed by the script from the per-scan held-out files "
+                 "(`check z` is the same computation for `ds@cross` against the model as it is, which must "
+                 "equal diagnose's own z).\n")
+        L.append("| run | dir | b_R, b_L (mm, median of fold fits) | (a) pose z / NLL z | (a) RMSE before → after (mm) "
+                 "| (b) RMSE ds@cross → + wheel_backlash (mm) | increment z (blocks better) | check z: tool / script |")
+        L.append("|---|---|---|---|---|---|---|---|")
+        for b in backlash:
+            L.append("| %s | %s | %s, %s | %s / %s | %s → %s | %s → %s | %s (%d of %d) | %s / %s |" % (
+                b["run"].replace("square_", "").replace("_run-", " r"), b["direction"],
+                fnum(b["b_R"] and 1e3 * b["b_R"], "%.1f"), fnum(b["b_L"] and 1e3 * b["b_L"], "%.1f"),
+                fnum(b["wb_pose_z"], "%.1f"), fnum(b["wb_nll_z"], "%.1f"),
+                fnum(b["wb_rmse_before_m"] and 1e3 * b["wb_rmse_before_m"], "%.2f"),
+                fnum(b["wb_rmse_after_m"] and 1e3 * b["wb_rmse_after_m"], "%.2f"),
+                fnum(b["ds_rmse_after_m"] and 1e3 * b["ds_rmse_after_m"], "%.2f"),
+                fnum(b["wb_ds_rmse_after_m"] and 1e3 * b["wb_ds_rmse_after_m"], "%.2f"),
+                fnum(b["increment_z"], "%.1f"), b["increment_blocks_better"], b["increment_blocks"],
+                fnum(b["ds_pose_z_tool"], "%.2f"), fnum(b["ds_pose_z_script"], "%.2f")))
         L.append("")
     return "\n".join(L) + "\n"
 
