@@ -61,6 +61,18 @@ def read_run(path):
     return rows
 
 
+def set_imarkers(set_dir):
+    """The `imarkers` row of the set's metadata file, as written (e.g. "4,1"); the data set's
+    README does not say what it means."""
+    for path in glob.glob(os.path.join(set_dir, "*_metadata.csv")):
+        with open(path, encoding="utf-8-sig") as f:
+            for line in f:
+                cells = [c for c in line.strip().split(",") if c != ""]
+                if cells and cells[0] == "imarkers":
+                    return ",".join(cells[1:])
+    return None
+
+
 def describe(rows):
     """Duration, travel, rotation and speed from the wheel ticks (nominal constants); the
     per-cycle increments (rho, th, dt, s_abs at the cycle's start) for the drift conversion."""
@@ -289,6 +301,7 @@ def main():
             desc, cycles = describe(read_run(csv_path))
             rec = run_record(ptype, set_id, run_no, csv_path, j, desc, cycles)
             rec["name"], rec["log"] = name, log
+            rec["imarkers"] = set_imarkers(os.path.dirname(csv_path))
             runs.append(rec)
             print("%s: %s; kept %s" % (name, rec["verdict"], ",".join(rec["auto_final_with"]) or "nothing"),
                   flush=True)
@@ -558,8 +571,8 @@ def tables_md(runs, cross, backlash=()):
         L.append("The coefficient (m of sideways travel, left positive, per m of travel; shown in mm/m) that "
                  "the held-out comparison's fits found, the median of a run's fold fits, then the median "
                  "and range over the runs.\n")
-        L.append("| path type | motion | day | direction | runs | median (mm/m) | range (mm/m) |")
-        L.append("|---|---|---|---|---|---|---|")
+        L.append("| path type | motion | day | metadata `imarkers` | direction | runs | median (mm/m) | range (mm/m) |")
+        L.append("|---|---|---|---|---|---|---|---|")
         rows, seen = {}, set()
         for c in cross:
             if c["token"] != "feature:ds@cross" or not c["estimates"] or c["target"] in seen:
@@ -570,10 +583,11 @@ def tables_md(runs, cross, backlash=()):
                 continue
             run = next(r for r in runs if r["name"] == c["target"])
             dname = "CW" if run["net_rotation_deg"] < -45 else ("CCW" if run["net_rotation_deg"] > 45 else "—")
-            rows.setdefault((run["path_type"], c["target_motion"], run["set"][:8], dname), []).append(
+            rows.setdefault((run["path_type"], c["target_motion"], run["set"][:8], run.get("imarkers") or "?", dname),
+                            []).append(
                 1e3 * statistics.median(v))
         for k in sorted(rows):
-            L.append("| %s | %s | %s | %s | %d | %s | %s |" % (*k, len(rows[k]), med(rows[k], "%+.1f"),
+            L.append("| %s | %s | %s | %s | %s | %d | %s | %s |" % (*k, len(rows[k]), med(rows[k], "%+.1f"),
                                                                rng(rows[k], "%+.1f")))
         L.append("")
     if backlash:
