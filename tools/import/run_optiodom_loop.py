@@ -407,7 +407,7 @@ def tables_md(runs, cross, backlash=()):
     L.append("### Per path type\n")
     L.append("| path type | runs | motion | with residual segments | features found | `--with auto` kept a step "
              "| first step pose z (median, range) | held-out pose RMSE before → after (median, mm) "
-             "| change points |")
+             "| change points (the scan needs 40 residual segments) |")
     L.append("|---|---|---|---|---|---|---|---|---|")
     for pt in PATH_TYPES:
         for motion in ("turning", "straight", "rotation"):
@@ -423,11 +423,14 @@ def tables_md(runs, cross, backlash=()):
             a = [1e3 * r["auto_steps"][-1]["pose_rmse_after_m"] for r in kept
                  if r["auto_steps"][-1]["pose_rmse_after_m"] is not None]
             cps = sum(len(r["change_points"]) for r in rs)
+            scanned = sum(1 for r in rs if (r["segments"] or 0) >= 40)  # the scan needs 40 segments
+            cp_txt = (str(cps) if cps else "none found") + (" (%d runs scanned)" % scanned) if scanned else \
+                "not scanned (under 40 segments)"
             L.append("| %s | %d | %s, %s s, %s m | %d | %d | %d | %s | %s → %s | %s |" % (
                 pt, len(rs), motion, rng([r["duration_s"] for r in rs], "%.0f"),
                 rng([r["travel_m"] for r in rs], "%.2f"), len(seg), len(found), len(kept),
                 ("%s (%s)" % (med(z1, "%.1f"), rng(z1, "%.1f"))) if z1 else "no step kept",
-                med(b, "%.1f") if b else "n/a", med(a, "%.1f") if a else "n/a", cps if cps else "none found"))
+                med(b, "%.1f") if b else "—", med(a, "%.1f") if a else "—", cp_txt))
     L.append("")
     # 2. Discovered features by path type.
     L.append("### What discovery found (the model's residual features, `unexplained.features`)\n")
