@@ -15,13 +15,18 @@ What it does (docs/real-data.md reports its output):
        odoerr diagnose LOG --with TOKEN
    to every run of the OTHER path types (OUT_DIR/cross/). The coefficients are re-fitted
    on each run's own data (cross-validated over time); what transfers is the form.
+3. Square runs: the catalogue's wheel_backlash alone, and on top of feature:ds@cross, whose
+   increment is paired block by block from diagnose's per-scan held-out files
+   (OUT_DIR/backlash/; diagnose compares only against the model without --with).
+--no-cross leaves out 2 and 3. --tables-only rewrites tables.md from summary.json.
 Written to OUT_DIR:
    runs.csv      one row per run: path type, set, run, duration, travel, rotation, verdict,
                  named effects, discovered features, change points, auto steps, drive
                  parameters, seconds
    steps.csv     one row per kept --with auto step
    cross.csv     one row per (source path type, token, target run)
-   summary.json  all of it, plus each run's excitation warnings
+   summary.json  all of it, plus each run's excitation warnings, its set's metadata
+                 `imarkers`, and the wheel_backlash check
    tables.md     the tables of docs/real-data.md
 Exit status: 0 on success, 77 when the data set is absent (../shared/data relative to the
 repository root), 2 on a bad option or a missing odoerr binary, 1 when a run fails.
