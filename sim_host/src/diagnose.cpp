@@ -4,6 +4,7 @@
 // the drive determines) and stats.cpp (the consistency tests, bins and CUSUM).
 #include "odoerr/sim/diagnose.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 
@@ -85,21 +86,24 @@ bool diagnoseDrive(const Odolog& log, const DiagnoseOptions& opt, json* out, std
   Scales scales;
   const Residuals res_base = disc.analyse(base, &scales);
   const double misfit = structuredMisfit(res_base.motion_sel) + structuredMisfit(res_base.beam_sel);
+  // A run of the model with `effects` held at their estimates, recording its residuals.
+  auto residualRun = [&](const std::vector<int>& effects) {
+    RunSpec s = rank.heldAt(effects);
+    s.scored = nullptr;
+    s.residuals = true;
+    return en.run(s);
+  };
   const std::vector<int> named0 = rank.named();
   std::vector<json> explains(named0.size());
+  std::vector<Residuals> res_named(named0.size());
   {
     std::vector<RunOut> runs(named0.size());
     std::vector<std::function<void()>> tasks;
-    for (std::size_t i = 0; i < named0.size(); ++i)
-      tasks.push_back([&, i] {
-        RunSpec s = rank.heldAt({named0[i]});
-        s.scored = nullptr;
-        s.residuals = true;
-        runs[i] = en.run(s);
-      });
+    for (std::size_t i = 0; i < named0.size(); ++i) tasks.push_back([&, i] { runs[i] = residualRun({named0[i]}); });
     runParallel(tasks, opt.threads);
     for (std::size_t i = 0; i < named0.size(); ++i) {
-      explains[i] = explainedBy(res_base, disc.analyse(runs[i], &scales));
+      res_named[i] = disc.analyse(runs[i], &scales);
+      explains[i] = explainedBy(res_base, res_named[i]);
       const json& tot = explains[i]["total"];
       if (misfit > 0 && tot.is_number() && tot.template get<double>() < kMinExplained) {
         char why[200];
@@ -134,11 +138,10 @@ bool diagnoseDrive(const Odolog& log, const DiagnoseOptions& opt, json* out, std
   }
   const std::vector<int> named = rank.named();
   Residuals res_final;
-  if (!named.empty()) {
-    RunSpec s = rank.heldAt(named);
-    s.scored = nullptr;
-    s.residuals = true;
-    res_final = disc.analyse(en.run(s), &scales);
+  if (named.size() == 1) {  // that effect's own run: already analysed
+    res_final = res_named[static_cast<std::size_t>(std::find(named0.begin(), named0.end(), named[0]) - named0.begin())];
+  } else if (!named.empty()) {
+    res_final = disc.analyse(residualRun(named), &scales);
   }
   const json unexplained = unexplainedJson(res_base, named.empty() ? res_base : res_final, !named.empty());
   const json change_points = disc.changePoints(res_base, named.empty() ? nullptr : &res_final);
@@ -209,13 +212,14 @@ bool diagnoseDrive(const Odolog& log, const DiagnoseOptions& opt, json* out, std
   if (!opt.suggest_dir.empty()) {
     const Residuals& r = named.empty() || !unexplained["significant"].template get<bool>() ? res_base : res_final;
     std::vector<Term> terms;
-    std::vector<double> coef;
+    std::vector<double> coef, sigma;
     for (const auto& [sel, tl] : {std::pair{&r.motion_sel, &r.motion_terms}, {&r.beam_sel, &r.beam_terms}})
       for (std::size_t k = 0; k < sel->terms.size() && k < sel->coef.size(); ++k) {
         terms.push_back((*tl)[static_cast<std::size_t>(sel->terms[k])]);
         coef.push_back(sel->coef[k]);
+        sigma.push_back(sel->sigma[k]);
       }
-    if (!writeSuggestion(opt.suggest_dir, terms, coef, error)) return false;
+    if (!writeSuggestion(opt.suggest_dir, terms, coef, sigma, error)) return false;
   }
 
   json walls = json::array();

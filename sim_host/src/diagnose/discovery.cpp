@@ -63,7 +63,9 @@ std::string Term::frame() const {
 }
 
 std::string Term::words(double c, double sigma) const {
-  const std::string pm = fmt(" (± %.2g)", sigma);
+  char pm_buf[80];
+  std::snprintf(pm_buf, sizeof pm_buf, " (coefficient %.3g ± %.2g)", c, sigma);
+  const std::string pm = pm_buf;
   if (kind == Kind::kTime)
     return fmt("the ranges drift by %.2f mm per minute of the drive (a laser that warms up)", 6e4 * c) + pm;
   if (kind == Kind::kBeam) {

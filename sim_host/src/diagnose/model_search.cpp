@@ -274,7 +274,7 @@ json autoSearch(const Engine<DriveT>& en, const Ranking<DriveT>& rank, const Res
 }
 
 bool writeSuggestion(const std::string& dir, const std::vector<Term>& terms, const std::vector<double>& coef,
-                     std::string* error) {
+                     const std::vector<double>& sigma, std::string* error) {
   std::error_code ec;
   std::filesystem::create_directories(dir, ec);
   const std::string path = (std::filesystem::path(dir) / "discovered_effect.hpp").string();
@@ -307,7 +307,7 @@ bool writeSuggestion(const std::string& dir, const std::vector<Term>& terms, con
   auto targetEnum = [&](const Term& t) { return "MotionTarget::" + enumName(t.target()); };
   if (!motion.empty()) {
     f << "/// The motion error found:\n";
-    for (std::size_t i : motion) f << "///   " << terms[i].words(coef[i], 0) << "\n";
+    for (std::size_t i : motion) f << "///   " << terms[i].words(coef[i], sigma[i]) << "\n";
     f << "struct DiscoveredMotion : NominalZero<DiscoveredMotion> {\n"
          "  static constexpr EffectKind kKind = EffectKind::kMotion;\n"
          "  static constexpr int kParams = " << motion.size() << ";\n"
@@ -339,14 +339,15 @@ bool writeSuggestion(const std::string& dir, const std::vector<Term>& terms, con
   if (!beam.empty()) {
     f << "/// The range error found (a measurement effect: see RangeBias in measurement_effects.hpp\n"
          "/// for the hook's form):\n";
-    for (std::size_t i : beam) f << "///   range += c x " << terms[i].name() << ", estimated c = " << coef[i] << "\n";
+    for (std::size_t i : beam)
+      f << "///   range += c x " << terms[i].name() << ", estimated c = " << coef[i] << " +- " << sigma[i] << "\n";
     f << "/// Until it is written as a struct, compose FeatureRange<N> with these slots configured.\n\n";
   }
   for (std::size_t i = 0; i < terms.size(); ++i) {
     if (terms[i].kind == Term::Kind::kReversal)
-      f << "// " << terms[i].words(coef[i], 0) << ": the catalogue's wheel_backlash / backlash carry this form.\n";
+      f << "// " << terms[i].words(coef[i], sigma[i]) << ": the catalogue's wheel_backlash / backlash carry this form.\n";
     if (terms[i].kind == Term::Kind::kTime)
-      f << "// " << terms[i].words(coef[i], 0) << ": the core does not see the time; model it on the host.\n";
+      f << "// " << terms[i].words(coef[i], sigma[i]) << ": the core does not see the time; model it on the host.\n";
   }
   f << "\n}  // namespace odoerr::effects\n";
   if (!f) {

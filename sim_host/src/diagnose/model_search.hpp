@@ -45,6 +45,6 @@ nlohmann::ordered_json autoSearch(const Engine<DriveT>& en, const Ranking<DriveT
 /// Writes DIR/discovered_effect.hpp: an effect struct in the tutorial's form for the motion
 /// terms, a measurement struct for the beam terms, with the estimates as comments.
 bool writeSuggestion(const std::string& dir, const std::vector<Term>& terms, const std::vector<double>& coef,
-                     std::string* error);
+                     const std::vector<double>& sigma, std::string* error);
 
 }  // namespace odoerr::sim::diag
