@@ -62,18 +62,25 @@ def fedge(v):
 
 
 def table(headers, rows, row_classes=None, num_cols=()):
-    h = "".join(f"<th>{x}</th>" for x in headers)
+    """An HTML table. A header may be (text, class): the class goes on that column's cells
+    (e.g. 'expl' for a column of sentences, which gets a minimum width). A cell may be
+    (html, class). Wrapped in a div that scrolls sideways on a narrow screen."""
+    col_cls = [x[1] if isinstance(x, tuple) else "" for x in headers]
+    h = "".join(f'<th class="{x[1]}">{x[0]}</th>' if isinstance(x, tuple) else f"<th>{x}</th>" for x in headers)
     body = []
     for i, r in enumerate(rows):
         cls = f' class="{row_classes[i]}"' if row_classes and row_classes[i] else ""
         tds = []
         for j, cell in enumerate(r):
+            cc = col_cls[j] if j < len(col_cls) else ""
             if isinstance(cell, tuple):          # (html, td class)
                 tds.append(f'<td class="{cell[1]}">{cell[0]}</td>')
+            elif j in num_cols:
+                tds.append(f'<td class="n">{cell}</td>')
             else:
-                tds.append(f'<td class="n">{cell}</td>' if j in num_cols else f"<td>{cell}</td>")
+                tds.append(f'<td class="{cc}">{cell}</td>' if cc else f"<td>{cell}</td>")
         body.append(f"<tr{cls}>{''.join(tds)}</tr>")
-    return f"<table><thead><tr>{h}</tr></thead><tbody>{''.join(body)}</tbody></table>"
+    return f"<div class='tw'><table><thead><tr>{h}</tr></thead><tbody>{''.join(body)}</tbody></table></div>"
 
 
 def figure(uri, alt, caption):

@@ -4,12 +4,16 @@
 usage: make_report.py DIR [--out FILE] [--max-points N]
 
 Reads DIR/diagnose.json, scans.csv, beams.csv, trajectory.csv and, when the held-out check
-ran, heldout_before.csv / heldout_after.csv. Writes one HTML file with inline CSS and every
+ran, heldout_before.csv / heldout_after.csv, and discovery_motion.csv / discovery_beam.csv when
+present. Writes one HTML file with inline CSS and every
 plot embedded as a base64 PNG: no JavaScript, no external links, readable offline.
 
 Exit status: 0 written; 1 an input file is missing or malformed (one line on stderr that
 names the file, and the line or key when there is one); 2 bad command line.
-Needs only numpy and matplotlib (Agg backend).
+Needs numpy, matplotlib (Agg backend) and Jinja2. The code is split by responsibility:
+report_io.py (inputs), fmt.py (numbers, tables), plots.py / plots_discovery.py (figures),
+sections.py (tables of tests, ranking, held-out...), discovery.py + templates/ (discovery,
+change points, --with auto).
 """
 import argparse
 import os
@@ -24,6 +28,7 @@ from plots import (BIN_ORDER, setup_matplotlib, png_uri, fig_trajectory,  # noqa
                    fig_truth_error, fig_nis, fig_residual_map, fig_beams, fig_bins, fig_ranking,
                    fig_heldout)
 from report_io import InputError, is_num, load_inputs  # noqa: E402
+from discovery import discovery_sections  # noqa: E402
 from sections import (tests_section, ranking_section, heldout_table, excitation_section,  # noqa: E402
                       bins_table)
 
@@ -34,13 +39,14 @@ with open(os.path.join(os.path.dirname(os.path.abspath(__file__)), "report.css")
 
 def build(args):
     t_start = time.monotonic()
-    d, scans, beams, traj, held = load_inputs(args.dir)
+    d, scans, beams, traj, held, disc = load_inputs(args.dir)
     plt = setup_matplotlib()
     rng = np.random.default_rng(0)
     walls = (d.get("map") or {}).get("walls") or []
     alarms = [a for a in ((d.get("cusum") or {}).get("alarms") or [])
               if is_num(a.get("x")) and is_num(a.get("y"))]
     has_truth = bool(len(traj["t"]) and np.isfinite(traj["truth_x"]).any() and np.isfinite(traj["truth_y"]).any())
+    cps = [c for c in (d.get("change_points") or []) if isinstance(c, dict) and is_num(c.get("t"))]
     n_imgs = 0
     s = []
     verdict = d["verdict"]
@@ -55,7 +61,7 @@ def build(args):
     sig_names = [r["effect"] for r in d["ranking"] if r.get("significant")]
     dist_total = float(np.nanmax(scans["dist_m"])) if len(scans["dist_m"]) and np.isfinite(scans["dist_m"]).any() else None
     n_used = int((beams["status"] == "used").sum())
-    s.append(f"<h1>odoerr diagnose report</h1>")
+    s.append("<h1>odoerr diagnose report</h1>")
     s.append("<table class='kv'><tbody>"
              f"<tr><td>log</td><td><code>{E(d['log'])}</code></td></tr>"
              f"<tr><td>drive</td><td>{E(d['drive'])} "
@@ -68,14 +74,26 @@ def build(args):
         s.append(f"<p class='cap'><b>Significant effects, best first:</b> {E(', '.join(sig_names))}.</p>")
     else:
         s.append("<p class='cap'>No candidate effect improves the model significantly.</p>")
+    u = d.get("unexplained")
+    if isinstance(u, dict) and u.get("features"):
+        s.append("<p class='cap'><b>Left unexplained:</b> " + E("; ".join(
+            str(f.get("words") or f.get("name")) for f in u["features"] if isinstance(f, dict)))
+            + " <a href='#unexplained'>(details)</a></p>")
+    if cps:
+        s.append(f"<p class='cap'><b>{len(cps)} change point(s):</b> " + E("; ".join(
+            f"t = {fnum(c['t'], 4)} s: {c.get('what') or 'the drive parameters change'}" for c in cps))
+            + " <a href='#changes'>(details)</a></p>")
     s.append("<nav><a href='#tests'>Tests</a><a href='#trajectory'>Trajectory</a><a href='#nis'>NIS</a>"
              "<a href='#residuals'>Residual map</a><a href='#beams'>Per beam</a><a href='#bins'>Bins</a>"
-             "<a href='#ranking'>Effects</a><a href='#heldout'>Held-out</a><a href='#excitation'>Excitation</a></nav>")
+             "<a href='#ranking'>Effects</a><a href='#unexplained'>Unexplained</a><a href='#changes'>Change points</a>"
+             "<a href='#auto'>Auto</a><a href='#heldout'>Held-out</a><a href='#excitation'>Excitation</a></nav>")
 
     s.append("<h2 id='tests'>Consistency tests</h2>")
     s.append("<p class='cap'>Each test asks whether the filter's innovations (measured minus predicted "
              "laser ranges) behave as its own uncertainty says they should.</p>")
-    s.append(tests_section(d))
+    tests_html = tests_section(d, plt)
+    n_imgs += tests_html.count("<img ")
+    s.append(tests_html)
 
     s.append("<h2 id='trajectory'>Trajectory on the map</h2>")
     if len(traj["t"]):
@@ -88,7 +106,7 @@ def build(args):
                         "trajectory on the map", E(cap)))
         n_imgs += 1
         if has_truth:
-            s.append(figure(png_uri(plt, fig_truth_error(plt, traj)), "error against truth",
+            s.append(figure(png_uri(plt, fig_truth_error(plt, traj, cps)), "error against truth",
                             "How far the estimate is from the truth along the drive: position error in cm "
                             "(top) and heading error in degrees (bottom)."))
             n_imgs += 1
@@ -99,7 +117,7 @@ def build(args):
 
     s.append("<h2 id='nis'>NIS per scan along the drive</h2>")
     if len(scans["t"]):
-        fig, n_out, n_good = fig_nis(plt, scans, alarms)
+        fig, n_out, n_good = fig_nis(plt, scans, alarms, cps)
         s.append(figure(png_uri(plt, fig), "NIS per scan against distance",
                         E(f"Top: each dot is one scan's normalised innovation squared divided by its number "
                           f"of beams; it should scatter around 1 inside the green band. {n_out} of {n_good} "
@@ -107,7 +125,9 @@ def build(args):
                           f"point to a systematic error at that part of the drive. Below: the pose "
                           f"correction each scan made, in the robot frame; corrections that repeat with the "
                           f"same sign show what the odometry gets wrong (e.g. cross-track in every turn). "
-                          f"Dotted lines: CUSUM alarms.")))
+                          f"Dotted lines: CUSUM alarms."
+                          + (f" Orange: the {len(cps)} change point(s) C1… (line: most likely time; band: its "
+                             f"interval; see Change points below)." if cps else ""))))
         n_imgs += 1
     else:
         s.append("<p class='note'>scans.csv has no rows: nothing to plot.</p>")
@@ -180,6 +200,10 @@ def build(args):
     else:
         s.append("<p class='note'>The ranking is empty.</p>")
 
+    disc_html, n_disc = discovery_sections(d, disc, scans, plt, rng)
+    s.append(disc_html)
+    n_imgs += n_disc
+
     s.append("<h2 id='heldout'>Held-out check</h2>")
     h = d.get("heldout")
     if h is None:
@@ -203,7 +227,7 @@ def build(args):
                      f"laser cannot relocalise the robot.</p>")
         s.append(heldout_table(h))
         if held:
-            s.append(figure(png_uri(plt, fig_heldout(plt, held, bl)), "held-out before and after",
+            s.append(figure(png_uri(plt, fig_heldout(plt, held, bl, cps)), "held-out before and after",
                             E("Before (red) and after (blue) adding the effects: the held-out scans' NIS per "
                               "beam (top, 1 expected)" + (" and its pose error against the truth (bottom)"
                                                           if len(held) and any(np.isfinite(held[k]['pose_err_m']).any() for k in held)

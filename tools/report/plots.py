@@ -21,6 +21,26 @@ BIN_LABEL = {
 }
 C_EST, C_TRUTH, C_SIG, C_NONSIG, C_BAD, C_OK = "#1f5fa8", "#e07b00", "#c0392b", "#9aa5b1", "#c0392b", "#2e8b57"
 
+C_CP = "#d35400"          # change points: the line at t and the band [t_lo, t_hi]
+
+
+def mark_change_points(axs, cps, to_x=None, label_ax=None):
+    """Shade each change point's [t_lo, t_hi] and draw a line at its t on every axis in axs;
+    to_x maps a time to the axis' x (e.g. distance travelled); labels C1... on label_ax."""
+    conv = (lambda t: t) if to_x is None else to_x
+    for i, c in enumerate(cps):
+        t, lo, hi = c.get("t"), c.get("t_lo"), c.get("t_hi")
+        if t is None:
+            continue
+        x = conv(t)
+        for ax in axs:
+            if lo is not None and hi is not None:
+                ax.axvspan(conv(lo), conv(hi), color=C_CP, alpha=0.10, lw=0, zorder=0)
+            ax.axvline(x, color=C_CP, lw=1.4, ls="-", zorder=0.5)
+        if label_ax is not None:
+            label_ax.text(x, label_ax.get_ylim()[1], f" C{i + 1}", color=C_CP, fontsize=9,
+                          fontweight="bold", va="top")
+
 
 def setup_matplotlib():
     import matplotlib
@@ -103,7 +123,7 @@ def path_distance(x, y):
     return np.concatenate([[0.0], np.cumsum(d)])
 
 
-def fig_truth_error(plt, traj):
+def fig_truth_error(plt, traj, cps=()):
     dist = path_distance(traj["x"], traj["y"])
     ep = np.hypot(traj["x"] - traj["truth_x"], traj["y"] - traj["truth_y"])
     eh = np.angle(np.exp(1j * (traj["theta"] - traj["truth_theta"])))
@@ -115,6 +135,8 @@ def fig_truth_error(plt, traj):
     a2.axhline(0, color="#444", lw=0.8)
     a2.set_ylabel("heading error (°)")
     a2.set_xlabel("distance travelled (m)")
+    if cps and len(dist) > 1:
+        mark_change_points((a1, a2), cps, lambda t: float(np.interp(t, traj["t"], dist)), a1)
     return fig
 
 
@@ -128,7 +150,7 @@ def rolling_mean(v, w):
         return np.where(n > w / 3, s / np.maximum(n, 1), np.nan)
 
 
-def fig_nis(plt, scans, alarms):
+def fig_nis(plt, scans, alarms, cps=()):
     dist, dof = scans["dist_m"], scans["dof"]
     with np.errstate(invalid="ignore", divide="ignore"):
         good = dof > 0
@@ -162,6 +184,11 @@ def fig_nis(plt, scans, alarms):
             for axx in axs:
                 axx.axvline(da, color="#7b3fa0", lw=0.9, ls=":", zorder=0)
             ax.text(da, ax.get_ylim()[1], f" A{i + 1}", color="#7b3fa0", fontsize=8.5, va="top")
+    if cps and len(dist) > 1:
+        mark_change_points(axs, cps, lambda t: float(np.interp(t, scans["t"], dist)), ax)
+        from matplotlib.patches import Patch
+        ax.add_artist(ax.legend(handles=[Patch(color=C_CP, alpha=0.35, label="change point: t and its interval")],
+                                loc="upper right", frameon=True, framealpha=0.85))
     ax.legend(loc="upper left", ncol=4, frameon=True, framealpha=0.85)
     a2 = axs[1]
     a2.plot(dist, 1000 * scans["along_m"], lw=0.8, color="#1f77b4", label="along track")
@@ -381,7 +408,7 @@ def fig_ranking(plt, ranking):
     return fig
 
 
-def fig_heldout(plt, held, blocks):
+def fig_heldout(plt, held, blocks, cps=()):
     """Per held-out block, the mean NIS (and pose error, with truth) before and after, against
     time: with cross-validation every block of the drive is held out once."""
     have_err = any(np.isfinite(held[k]["pose_err_m"]).any() for k in held)
@@ -420,4 +447,6 @@ def fig_heldout(plt, held, blocks):
         axs[1].set_ylabel("pose error RMS (cm)")
         axs[1].set_ylim(bottom=0)
     axs[-1].set_xlabel("time of the held-out block (s)")
+    if cps:
+        mark_change_points(axs, cps, None, axs[0])
     return fig

@@ -169,6 +169,72 @@ def check_diagnose(d, path):
         expect(isinstance(walls, list) and all(isinstance(w, list) and len(w) == 4 and all(is_num(x) for x in w)
                                                for w in walls), path,
                "'map.walls' should be a list of [x1, y1, x2, y2]")
+    check_discovery(d, path)
+
+
+def _features(lst, where, path):
+    expect(lst is None or isinstance(lst, list), path, f"'{where}' should be a list")
+    for i, f in enumerate(lst or []):
+        expect(isinstance(f, dict), path, f"'{where}[{i}]' should be an object")
+        for k in ("coef", "sigma"):
+            num(f, k, f"{where}[{i}]", path)
+        for k in ("name", "frame", "component", "words", "with"):
+            expect(f.get(k) is None or isinstance(f[k], str), path, f"'{where}[{i}].{k}' should be a string")
+
+
+def check_discovery(d, path):
+    """The keys of discovery, change points and --with auto; each may be absent (an older
+    odoerr) or null."""
+    u = d.get("unexplained")
+    if u is not None:
+        expect(isinstance(u, dict), path, "'unexplained' should be null or an object")
+        num(u, "explained_fraction", "unexplained", path)
+        _features(u.get("features"), "unexplained.features", path)
+        _features(u.get("baseline_features"), "unexplained.baseline_features", path)
+        for k in ("motion", "beam"):
+            expect(u.get(k) is None or isinstance(u[k], dict), path, f"'unexplained.{k}' should be an object")
+    cps = d.get("change_points")
+    expect(cps is None or isinstance(cps, list), path, "'change_points' should be a list")
+    for i, c in enumerate(cps or []):
+        expect(isinstance(c, dict), path, f"'change_points[{i}]' should be an object")
+        for k in ("t", "t_lo", "t_hi", "statistic", "critical_0.1pct"):
+            num(c, k, f"change_points[{i}]", path)
+    a = d.get("auto")
+    if a is not None:
+        expect(isinstance(a, dict), path, "'auto' should be null or an object")
+        for k in ("steps", "tried", "final_with"):
+            expect(a.get(k) is None or isinstance(a[k], list), path, f"'auto.{k}' should be a list")
+        for i, st in enumerate(a.get("steps") or []):
+            expect(isinstance(st, dict), path, f"'auto.steps[{i}]' should be an object")
+            num(st, "score_z", f"auto.steps[{i}]", path)
+            num(st, "explained_fraction", f"auto.steps[{i}]", path)
+            h = st.get("heldout")
+            expect(h is None or isinstance(h, dict), path, f"'auto.steps[{i}].heldout' should be an object")
+        for i, st in enumerate(a.get("tried") or []):
+            expect(isinstance(st, dict), path, f"'auto.tried[{i}]' should be an object")
+    for i, r in enumerate(d.get("ranking") or []):
+        ex = r.get("explains")
+        expect(ex is None or isinstance(ex, dict), path, f"'ranking[{i}].explains' should be an object")
+        for k in ("motion", "beam", "total"):
+            num(ex, k, f"ranking[{i}].explains", path)
+
+
+def read_discovery_csv(path):
+    """A discovery CSV (t,row,y,fit, then a column and its partial residual per selected
+    term): (columns, terms), terms the names 'frame/component/name'; None when absent."""
+    if not os.path.isfile(path):
+        return None
+    try:
+        with open(path, newline="", encoding="utf-8") as f:
+            header = [h.strip() for h in next(csv.reader(f), [])]
+    except (OSError, UnicodeDecodeError, csv.Error) as e:
+        raise InputError(f"{path}: cannot read: {e}")
+    terms = [h for h in header if h not in ("t", "row", "y", "fit") and not h.startswith("partial_")]
+    lacking = [f"partial_{h}" for h in terms if f"partial_{h}" not in header]
+    if lacking:
+        raise InputError(f"{path}: header lacks column(s) {', '.join(lacking)} (header is: {','.join(header)})")
+    cols = read_csv(path, ["t", "row", "y", "fit"] + [c for h in terms for c in (h, f"partial_{h}")])
+    return cols, terms
 
 
 def load_inputs(d):
@@ -188,4 +254,5 @@ def load_inputs(d):
             f = p(f"heldout_{k}.csv")
             if os.path.isfile(f):
                 held[k] = read_csv(f, ["t", "nis", "pose_err_m"])
-    return diag, scans, beams, traj, held
+    disc = {k: read_discovery_csv(p(f"discovery_{k}.csv")) for k in ("motion", "beam")}
+    return diag, scans, beams, traj, held, disc
