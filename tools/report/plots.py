@@ -33,13 +33,15 @@ def mark_change_points(axs, cps, to_x=None, label_ax=None):
         if t is None:
             continue
         x = conv(t)
-        for ax in axs:
+        for k, ax in enumerate(axs):
             if lo is not None and hi is not None:
-                ax.axvspan(conv(lo), conv(hi), color=C_CP, alpha=0.10, lw=0, zorder=0)
-            ax.axvline(x, color=C_CP, lw=1.4, ls="-", zorder=0.5)
+                ax.axvspan(conv(lo), conv(hi), color=C_CP, alpha=0.12, lw=0, zorder=0,
+                           label="change point: interval" if i == 0 and ax is label_ax else None)
+            ax.axvline(x, color=C_CP, lw=1.4, ls="-", zorder=0.5,
+                       label="change point: time" if i == 0 and ax is label_ax else None)
         if label_ax is not None:
-            label_ax.text(x, label_ax.get_ylim()[1], f" C{i + 1}", color=C_CP, fontsize=9,
-                          fontweight="bold", va="top")
+            label_ax.text(x, 0.02, f" C{i + 1}", color=C_CP, fontsize=9.5, fontweight="bold", va="bottom",
+                          transform=label_ax.get_xaxis_transform())
 
 
 def setup_matplotlib():
@@ -186,10 +188,7 @@ def fig_nis(plt, scans, alarms, cps=()):
             ax.text(da, ax.get_ylim()[1], f" A{i + 1}", color="#7b3fa0", fontsize=8.5, va="top")
     if cps and len(dist) > 1:
         mark_change_points(axs, cps, lambda t: float(np.interp(t, scans["t"], dist)), ax)
-        from matplotlib.patches import Patch
-        ax.add_artist(ax.legend(handles=[Patch(color=C_CP, alpha=0.35, label="change point: t and its interval")],
-                                loc="upper right", frameon=True, framealpha=0.85))
-    ax.legend(loc="upper left", ncol=4, frameon=True, framealpha=0.85)
+    ax.legend(loc="upper left", ncol=3 if cps else 4, frameon=True, framealpha=0.85)
     a2 = axs[1]
     a2.plot(dist, 1000 * scans["along_m"], lw=0.8, color="#1f77b4", label="along track")
     a2.plot(dist, 1000 * scans["cross_m"], lw=0.8, color="#d62728", label="cross track (left +)")

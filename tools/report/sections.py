@@ -71,8 +71,8 @@ def per_beam_cell(pb, max_t, plt):
             + (f" and {len(far) - 8} more" if len(far) > 8 else "")) if far else "; none beyond |t| 3"
     img = ""
     if plt is not None and ts:
-        img = (f"<img class='spark' src='{png_uri(plt, fig_per_beam_t(plt, rows))}' "
-               f"alt='t statistic per beam'>")
+        img = (f'<img class="spark" src="{png_uri(plt, fig_per_beam_t(plt, rows))}" '
+               f'alt="t statistic per beam">')
     return img + f"<div class='small'>{E(txt)}</div>"
 
 
