@@ -47,7 +47,7 @@ window.addEventListener("load", function () {
   }
   var a = document.createElement("pre");
   a.id = "render-alts";
-  a.textContent = alts.map(function (x) { return "ALT:" + x; }).join("\n");
+  a.textContent = alts.map(function (x) { return "ALT:" + x; }).join(String.fromCharCode(10));
   document.body.appendChild(a);
   var m = document.createElement("pre");
   m.id = "render-probe";

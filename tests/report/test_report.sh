@@ -54,7 +54,7 @@ else
 fi
 page="$tmp/full/report.html"
 if [ -s "$page" ]; then
-  n_img=$(grep -o '<img src="data:image/png;base64,' "$page" | wc -l)
+  n_img=$(grep -o 'src="data:image/png;base64,' "$page" | wc -l)
   if [ "$n_img" -ge 5 ] && ! grep -Eqi '<script|(src|href)="(https?:)?//' "$page"; then
     ok "self-contained: $n_img embedded PNGs, no script, no external link"
   else

@@ -35,6 +35,11 @@ def feature_row(f):
             "with": f.get("with") or "—", "coef": c, "sigma": s}
 
 
+def breakable(s):
+    """A --with token that may wrap after its commas and before an '@' (zero-width spaces)."""
+    return str(s).replace(",", ",\u200b").replace("@", "\u200b@")
+
+
 def pct(v):
     return "—" if not is_num(v) else f"{100 * v:.0f} %"
 
@@ -167,14 +172,15 @@ def auto_ctx(d):
                 vals = v if isinstance(v, list) else [v]
                 est_l.append(f"{k}: " + ", ".join(fnum(x, 3) for x in vals))
         ff = h.get("folds_failed") or []
-        steps.append({"added": s.get("added") or "?",
+        steps.append({"added": breakable(s.get("added") or "?"),
                       "pose": before_after(h, "pose_rmse_m", 100.0, "cm"),
                       "nll": before_after(h, "nll_mean", 1.0, "", 4),
                       "paired": paired_ctx(s.get("paired")), "estimate": est_l,
                       "explained": pct(s.get("explained_fraction")),
                       "left": [left_text(x) for x in (s.get("left") or [])],
                       "folds_failed": ", ".join(str(x) for x in ff)})
-    not_kept = [{"step": (t.get("step") + 1) if is_num(t.get("step")) else "?", "added": t.get("added") or "?",
+    not_kept = [{"step": (t.get("step") + 1) if is_num(t.get("step")) else "?",
+                 "added": breakable(t.get("added") or "?"),
                  "paired": paired_ctx(t.get("paired"))}
                 for t in a.get("tried") or [] if isinstance(t, dict) and not t.get("kept")]
     fw = a.get("final_with") or []
