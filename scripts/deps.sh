@@ -8,7 +8,7 @@ PACKAGES=(
   libeigen3-dev             # core
   libcli11-dev nlohmann-json3-dev   # odoerr tool
   libgtest-dev libbenchmark-dev     # tests, benchmarks
-  python3 python3-matplotlib python3-numpy  # figures
+  python3 python3-matplotlib python3-numpy python3-jinja2  # figures, the report
 )
 # Target build and emulation (the test command): bash scripts/deps.sh --target
 if [ "${1:-}" = "--target" ]; then

@@ -3,8 +3,12 @@
 #
 # Opens the page in headless Chromium and checks that it renders: after load, every <img>
 # decoded (complete and naturalWidth > 0) and there are at least MIN_IMGS of them (default 5).
-# Also takes a full-width screenshot and checks it is a non-empty PNG; with SCREENSHOT_PNG it is
-# kept there, otherwise it goes to a temporary directory that is removed.
+# With REQUIRE_IDS="a b ...", each id must be an element of the rendered DOM (the report's
+# sections: e.g. "tests unexplained changes auto"), and with MIN_ALT="TEXT:N" at least N images
+# whose alt text starts with TEXT must have decoded.
+# Also takes a screenshot at a laptop's width (1366 px; SHOT_HEIGHT, default 2400) and checks
+# it is a non-empty PNG; with SCREENSHOT_PNG it is kept there, otherwise it goes to a temporary
+# directory that is removed.
 #
 # Browser: $CHROMIUM if set, else /usr/bin/chromium, else chromium / chromium-browser on PATH.
 # Exit: 0 rendered fine; 1 a check failed (the reason is printed); 2 bad usage or unreadable
@@ -36,10 +40,15 @@ trap 'rm -rf "$work"' EXIT
 # The page under test has no script of its own; the probe is added to a copy only.
 probe='<script>
 window.addEventListener("load", function () {
-  var imgs = document.images, broken = 0, bad = [];
+  var imgs = document.images, broken = 0, bad = [], alts = [];
   for (var i = 0; i < imgs.length; i++) {
     if (!imgs[i].complete || !(imgs[i].naturalWidth > 0)) { broken++; bad.push(i); }
+    else alts.push(imgs[i].alt);
   }
+  var a = document.createElement("pre");
+  a.id = "render-alts";
+  a.textContent = alts.map(function (x) { return "ALT:" + x; }).join(String.fromCharCode(10));
+  document.body.appendChild(a);
   var m = document.createElement("pre");
   m.id = "render-probe";
   m.textContent = "RENDER_OK imgs=" + imgs.length + " broken=" + broken + " bad=[" + bad.join(",") + "]";
@@ -93,6 +102,21 @@ if [ "$imgs" -lt "$min_imgs" ]; then
   echo "check_render: FAIL: only $imgs image(s), expected at least $min_imgs" >&2
   fail=1
 fi
+for id in ${REQUIRE_IDS:-}; do
+  if ! grep -q "id=\"$id\"" "$work/dom.html"; then
+    echo "check_render: FAIL: the rendered page has no element with id=\"$id\" (a section is missing)" >&2
+    fail=1
+  fi
+done
+if [ -n "${MIN_ALT:-}" ]; then
+  alt_text=${MIN_ALT%:*}; alt_min=${MIN_ALT##*:}
+  n_alt=$(grep -o "ALT:$alt_text" "$work/dom.html" | wc -l)
+  echo "check_render: $n_alt decoded image(s) with alt \"$alt_text...\""
+  if [ "$n_alt" -lt "$alt_min" ]; then
+    echo "check_render: FAIL: $n_alt image(s) with alt \"$alt_text...\", expected at least $alt_min" >&2
+    fail=1
+  fi
+fi
 # The page itself must not reach out: no http(s) or protocol-relative src/href/url().
 if grep -Eqi "(src|href)=[\"']?(https?:)?//|url\([\"']?(https?:)?//" "$page"; then
   echo "check_render: FAIL: the page refers to an external resource:" >&2
@@ -102,7 +126,7 @@ fi
 
 shot=${shot_out:-$work/shot.png}
 rm -f -- "$shot"
-(cd "$work" && run_chromium --window-size=1280,2400 --screenshot="$shot" "file://$work/page.html" >/dev/null)
+(cd "$work" && run_chromium --window-size=1366,${SHOT_HEIGHT:-2400} --screenshot="$shot" "file://$work/page.html" >/dev/null)
 if [ ! -s "$shot" ] || [ "$(head -c 8 "$shot" | od -An -tx1 | tr -d ' \n')" != "89504e470d0a1a0a" ]; then
   echo "check_render: FAIL: no screenshot PNG was written" >&2
   tail -n 20 "$work/chromium.log" >&2

@@ -2,11 +2,12 @@
 """Write a realistic fixture of what `odoerr diagnose` puts in its output directory.
 
     make_fixture.py OUTDIR [--beams N] [--drive diff|sync] [--seed S]
-                           [--no-truth] [--no-heldout] [--no-alarms]
+                           [--no-truth] [--no-heldout] [--no-alarms] [--no-discovery]
 
 Files written (the contract that tools/report/make_report.py reads):
   diagnose.json, scans.csv, beams.csv, trajectory.csv,
-  heldout_before.csv and heldout_after.csv (unless --no-heldout).
+  heldout_before.csv and heldout_after.csv (unless --no-heldout),
+  discovery_motion.csv and discovery_beam.csv (unless --no-discovery; fixture_discovery.py).
 
 The drive is a figure-eight with one reversal through a 10 m x 8 m room with a few inner
 walls. Two effects are planted so that the plots have something to show: wall 5 sits 4 cm
@@ -21,6 +22,9 @@ import os
 import sys
 
 import numpy as np
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from fixture_discovery import add_discovery, add_tests_extras  # noqa: E402
 
 EFFECTS = [
     ("turn_slip", 1, "Tyres slide sideways under centripetal acceleration v*w."),
@@ -157,6 +161,9 @@ def main():
     ap.add_argument("--no-truth", action="store_true")
     ap.add_argument("--no-heldout", action="store_true")
     ap.add_argument("--no-alarms", action="store_true")
+    ap.add_argument("--no-discovery", action="store_true",
+                    help="a diagnose.json of an older odoerr: no unexplained / change_points / auto, no "
+                         "discovery CSVs, no nested tests")
     a = ap.parse_args()
     rng = np.random.default_rng(a.seed)
     os.makedirs(a.outdir, exist_ok=True)
@@ -414,6 +421,9 @@ def main():
     doc = {"log": "/data/logs/warehouse-run-07.odolog", "drive": a.drive, "verdict": verdict,
            "tests": tests, "ranking": ranking, "heldout": heldout, "excitation": excitation,
            "bins": bins, "cusum": {"alarms": alarms}, "map": {"walls": WALLS}}
+    if not a.no_discovery:
+        add_tests_extras(tests, rng, 36)
+        add_discovery(doc, a.outdir, rng, float(t[si][-1]), float(dist[si][-1]))
     with open(os.path.join(a.outdir, "diagnose.json"), "w") as f:
         json.dump(doc, f, indent=1)
     print(f"make_fixture: {a.outdir}: {ns} scans, {len(b_t)} beams, drive {a.drive}, "

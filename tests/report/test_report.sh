@@ -7,7 +7,10 @@
 #  (d) with one image's data URI corrupted, check_render.sh fails;
 #  (e) make_report.py fails with a message naming the file when diagnose.json is missing,
 #      and likewise for a malformed diagnose.json / scans.csv / beams.csv;
-#  (f) the optional parts may be absent: no truth, heldout null, no alarms, sync drive.
+#  (f) the optional parts may be absent: no truth, heldout null, no alarms, sync drive;
+#  (g) discovery, change points and --with auto: their sections, the partial-residual plots and
+#      the change point on the timeline are there (and render), the tests table holds no JSON;
+#      without the keys (an older odoerr) the sections say "not run"; with nothing found, so.
 #
 # Exit 0 all passed; 1 something failed; 77 Chromium is missing (the steps that need no browser
 # still ran and passed). Closes with the line "report: N passed, N failed".
@@ -51,7 +54,7 @@ else
 fi
 page="$tmp/full/report.html"
 if [ -s "$page" ]; then
-  n_img=$(grep -o '<img src="data:image/png;base64,' "$page" | wc -l)
+  n_img=$(grep -o 'src="data:image/png;base64,' "$page" | wc -l)
   if [ "$n_img" -ge 5 ] && ! grep -Eqi '<script|(src|href)="(https?:)?//' "$page"; then
     ok "self-contained: $n_img embedded PNGs, no script, no external link"
   else
@@ -62,7 +65,8 @@ fi
 # (c) renders in Chromium
 have_browser=1
 if [ -s "$page" ]; then
-  out=$(bash "$check" "$page" 2>&1); rc=$?
+  out=$(REQUIRE_IDS="tests ranking unexplained changes auto heldout" MIN_IMGS=11 \
+        MIN_ALT="partial residual against:2" bash "$check" "$page" 2>&1); rc=$?
   if [ "$rc" -eq 77 ]; then have_browser=0; skipped=1; echo "skip: $out"
   elif [ "$rc" -eq 0 ]; then ok "check_render on the report: $(grep RENDER_OK <<<"$out")"
   else bad "check_render on the report (exit $rc): $out"; fi
@@ -88,6 +92,11 @@ EOF
   else
     bad "check_render did not fail on a corrupted image (exit $rc): $out"
   fi
+  # A page without a required section fails.
+  out=$(REQUIRE_IDS="unexplained no-such-section" bash "$check" "$page" 2>&1); rc=$?
+  if [ "$rc" -eq 1 ] && grep -q 'no element with id="no-such-section"' <<<"$out"; then
+    ok "check_render fails on a missing section"
+  else bad "check_render on a missing section (exit $rc): $out"; fi
   # A page with too few images fails too.
   printf '<!DOCTYPE html><html><body><p>no figures</p></body></html>\n' > "$tmp/empty.html"
   out=$(bash "$check" "$tmp/empty.html" 2>&1); rc=$?
@@ -158,6 +167,59 @@ for f in scans beams trajectory; do head -n 1 "$tmp/full/$f.csv" > "$tmp/empty/$
 if out=$("$PY" "$report" "$tmp/empty" 2>&1) && grep -q 'scans.csv has no rows' "$tmp/empty/report.html"; then
   ok "header-only CSVs: $out"
 else bad "header-only CSVs: $out"; fi
+
+# (g) discovery, change points, --with auto
+# expect_in NAME FILE TEXT...: every TEXT (fixed string) is in FILE.
+expect_in() {
+  local name=$1 file=$2 miss=""; shift 2
+  for x in "$@"; do grep -qF -- "$x" "$file" || miss="$miss [$x]"; done
+  if [ -z "$miss" ]; then ok "$name"; else bad "$name: missing$miss"; fi
+}
+if [ -s "$page" ]; then
+  expect_in "discovery sections in the full report" "$page" \
+    "What the catalogue does not explain" "the robot drifts 1.15 cm per m of travel" "--with feature:abs_ds@world_x" \
+    "--with feature:abs_ds@world_x,feature:alpha_angle_sens" 'alt="partial residual against world/world_x/abs_ds"' \
+    'alt="partial residual against beam/range/alpha_angle_sens"' "explain 41 %" \
+    "Change points" "<b style=\"color:#d35400\">C1</b>" "the right wheel&#39;s travel scale -2.12 %" \
+    "Orange: the 1 change point(s)" "Automatic model search" "Tried and not kept" "laser_mount_yaw" \
+    "2.14 → 1.22 cm" "−9.6" "not named: it explains 8 %" "motion 8 % · beam —" \
+    "largest |t| =" "cross track (left +)</span> mean 0.18 mm" 'alt="t statistic per beam"'
+  if grep -qE '\{&quot;|\[\{|&quot;beam&quot;' "$page"; then bad "the full report prints raw JSON"
+  else ok "no raw JSON in the full report"; fi
+fi
+"$PY" "$fixture" "$tmp/old" --beams 8000 --no-discovery --seed 4 2>/dev/null
+if out=$("$PY" "$report" "$tmp/old" 2>&1); then
+  expect_in "an older diagnose.json (no discovery keys): sections say not run ($out)" "$tmp/old/report.html" \
+    'Discovery was not run' 'The change-point scan was not run' 'Not run: diagnose was run without'
+else bad "an older diagnose.json: $out"; fi
+mkdir -p "$tmp/nothing" && cp "$tmp/full/"{scans,beams,trajectory}.csv "$tmp/nothing/"
+for f in motion beam; do head -n 1 "$tmp/full/discovery_$f.csv" | cut -d, -f1-4 > "$tmp/nothing/discovery_$f.csv"
+  "$PY" -c 'import sys; import random
+for i in range(50): print(f"{10 + i * 0.5:.3f},{i},{random.gauss(0, 1):.4f},0")' >> "$tmp/nothing/discovery_$f.csv"; done
+"$PY" - "$tmp/full/diagnose.json" "$tmp/nothing/diagnose.json" <<'EOF2'
+import json, sys
+d = json.load(open(sys.argv[1]))
+d["unexplained"] = {"significant": False, "explained_fraction": None, "features": [], "baseline_features": [],
+                    "motion": None, "beam": {}, "note": "the model's residuals show no structure in the feature library"}
+d["change_points"] = []
+d["auto"] = {"steps": [], "tried": [], "final_with": [], "rule": None}
+for r in d["ranking"]:
+    r["explains"] = None
+json.dump(d, open(sys.argv[2], "w"))
+EOF2
+if out=$("$PY" "$report" "$tmp/nothing" 2>&1); then
+  expect_in "discovery found nothing: said in words ($out)" "$tmp/nothing/report.html" \
+    'Nothing is left unexplained' 'No term of the feature library is left' 'No change point' \
+    'No step was kept' 'the baseline (nothing added)'
+else bad "discovery found nothing: $out"; fi
+mkdir -p "$tmp/badcp" && cp "$tmp/full/"*.csv "$tmp/badcp/"
+"$PY" -c 'import json,sys; d=json.load(open(sys.argv[1])); d["change_points"][0]["t"]="soon"; json.dump(d, open(sys.argv[2],"w"))' \
+  "$tmp/full/diagnose.json" "$tmp/badcp/diagnose.json"
+expect_error "non-numeric change point time" "diagnose\.json: 'change_points\[0\]\.t' should be a number" "$tmp/badcp"
+mkdir -p "$tmp/baddisc" && cp "$tmp/full/"{scans,beams,trajectory}.csv "$tmp/full/diagnose.json" "$tmp/baddisc/"
+cp "$tmp/full/discovery_beam.csv" "$tmp/baddisc/"
+sed '1s/,partial_[^,]*$//' "$tmp/full/discovery_motion.csv" | cut -d, -f1-5 > "$tmp/baddisc/discovery_motion.csv"
+expect_error "discovery_motion.csv without its partial column" "discovery_motion\.csv: header lacks column\(s\) partial_world/world_x/abs_ds" "$tmp/baddisc"
 
 echo "report: $pass passed, $fail failed"
 [ "$fail" -ne 0 ] && exit 1

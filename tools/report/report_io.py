@@ -1,0 +1,258 @@
+"""Reading and checking what `odoerr diagnose` wrote: diagnose.json and the CSV files.
+
+Every problem is an InputError whose message names the file (and the line or key)."""
+import csv
+import json
+import os
+
+import numpy as np
+
+
+class InputError(Exception):
+    """An input file is missing or malformed; the message names the file."""
+
+
+# ----------------------------------------------------------------------------------------
+# Reading and checking the inputs
+# ----------------------------------------------------------------------------------------
+
+def read_json(path):
+    if not os.path.isfile(path):
+        raise InputError(f"{path}: file not found (odoerr diagnose writes it)")
+    try:
+        with open(path, encoding="utf-8") as f:
+            return json.load(f)
+    except json.JSONDecodeError as e:
+        raise InputError(f"{path}: not valid JSON: {e.msg} (line {e.lineno}, column {e.colno})")
+    except (OSError, UnicodeDecodeError) as e:
+        raise InputError(f"{path}: cannot read: {e}")
+
+
+def read_csv(path, columns, str_columns=()):
+    """Columns of a CSV file as numpy arrays (float; '' -> nan), str_columns as str arrays."""
+    if not os.path.isfile(path):
+        raise InputError(f"{path}: file not found (odoerr diagnose writes it)")
+    try:
+        with open(path, newline="", encoding="utf-8") as f:
+            rows = [r for r in csv.reader(f) if r]
+    except (OSError, UnicodeDecodeError, csv.Error) as e:
+        raise InputError(f"{path}: cannot read: {e}")
+    if not rows:
+        raise InputError(f"{path}: empty file; expected the header {','.join(columns)}")
+    header = [h.strip() for h in rows[0]]
+    missing = [c for c in columns if c not in header]
+    if missing:
+        raise InputError(f"{path}: header lacks column(s) {', '.join(missing)} "
+                         f"(header is: {','.join(header)})")
+    body = rows[1:]
+    width = len(header)
+    if any(len(r) != width for r in body):
+        for i, r in enumerate(body):
+            if len(r) != width:
+                raise InputError(f"{path}:{i + 2}: {len(r)} fields where the header has {width}")
+    cols = list(zip(*body)) if body else [()] * width
+    out = {}
+    for c in columns:
+        raw = cols[header.index(c)]
+        if c in str_columns:
+            out[c] = np.array([s.strip() for s in raw], dtype=object)
+            continue
+        try:
+            out[c] = np.array(raw, dtype=float) if raw else np.zeros(0)
+        except ValueError:
+            vals = np.empty(len(raw))
+            for i, s in enumerate(raw):
+                s = s.strip()
+                if s == "":
+                    vals[i] = np.nan
+                    continue
+                try:
+                    vals[i] = float(s)
+                except ValueError:
+                    raise InputError(f"{path}:{i + 2}: column '{c}': '{s[:40]}' is not a number")
+            out[c] = vals
+    return out
+
+
+def is_num(x):
+    return isinstance(x, (int, float)) and not isinstance(x, bool)
+
+
+def num(obj, key, where, path):
+    """obj[key] as float, None when missing/null; a non-number is an error."""
+    if not isinstance(obj, dict) or key not in obj or obj[key] is None:
+        return None
+    v = obj[key]
+    if not is_num(v):
+        raise InputError(f"{path}: '{where}.{key}' should be a number, found {json.dumps(v)[:60]}")
+    return float(v)
+
+
+def expect(cond, path, msg):
+    if not cond:
+        raise InputError(f"{path}: {msg}")
+
+
+def check_diagnose(d, path):
+    """Structural checks; values that are merely missing are shown as '—' later."""
+    expect(isinstance(d, dict), path, "top level should be a JSON object")
+    for k in ("log", "drive", "verdict", "tests", "ranking"):
+        expect(k in d, path, f"missing key '{k}'")
+    for k in ("log", "drive", "verdict"):
+        expect(isinstance(d[k], str), path, f"'{k}' should be a string")
+    expect(isinstance(d["tests"], dict), path, "'tests' should be an object")
+    expect(isinstance(d["ranking"], list), path, "'ranking' should be a list")
+    for i, r in enumerate(d["ranking"]):
+        expect(isinstance(r, dict) and isinstance(r.get("effect"), str), path,
+               f"'ranking[{i}]' should be an object with a string 'effect'")
+        for k in ("delta_loglik", "bic_gain", "p_value", "informed_params"):
+            num(r, k, f"ranking[{i}]", path)
+        for k in ("estimate", "sigma"):
+            v = r.get(k)
+            expect(v is None or is_num(v) or (isinstance(v, list) and all(is_num(x) or x is None for x in v)),
+                   path, f"'ranking[{i}].{k}' should be a list of numbers")
+        cw = r.get("confused_with")
+        expect(cw is None or (isinstance(cw, list) and all(isinstance(x, str) for x in cw)),
+               path, f"'ranking[{i}].confused_with' should be a list of names")
+    t = d["tests"]
+    for k, v in t.items():
+        if k == "nis_band":
+            expect(v is None or (isinstance(v, list) and len(v) == 2 and all(is_num(x) for x in v)),
+                   path, "'tests.nis_band' should be [lo, hi]")
+        elif k == "ljung_box":
+            expect(v is None or isinstance(v, dict), path, "'tests.ljung_box' should be an object")
+            for kk in ("lags", "q", "p_value"):
+                num(v, kk, "tests.ljung_box", path)
+    h = d.get("heldout")
+    if h is not None:
+        expect(isinstance(h, dict), path, "'heldout' should be null or an object")
+        for k in ("before", "after"):
+            expect(isinstance(h.get(k), dict), path, f"'heldout.{k}' should be an object")
+            for kk in h[k]:
+                num(h[k], kk, f"heldout.{k}", path)
+        bl = h.get("blocks") or []
+        expect(isinstance(bl, list) and all(isinstance(b, list) and len(b) == 2 and all(is_num(x) for x in b)
+                                            for b in bl), path, "'heldout.blocks' should be [[t0,t1],...]")
+    e = d.get("excitation")
+    if e is not None:
+        expect(isinstance(e, dict), path, "'excitation' should be an object")
+        ps = e.get("parameters") or []
+        expect(isinstance(ps, list), path, "'excitation.parameters' should be a list")
+        for i, p in enumerate(ps):
+            expect(isinstance(p, dict), path, f"'excitation.parameters[{i}]' should be an object")
+            for k in ("sigma_achievable", "prior_sigma"):
+                num(p, k, f"excitation.parameters[{i}]", path)
+        w = e.get("warnings") or []
+        expect(isinstance(w, list), path, "'excitation.warnings' should be a list of sentences")
+    b = d.get("bins")
+    if b is not None:
+        expect(isinstance(b, dict), path, "'bins' should be an object")
+        for name, lst in b.items():
+            expect(lst is None or isinstance(lst, list), path, f"'bins.{name}' should be a list")
+            for i, e in enumerate(lst or []):
+                expect(isinstance(e, dict), path, f"'bins.{name}[{i}]' should be an object")
+                for k in ("lo", "hi", "count", "nis_mean", "mean_norm_innovation"):
+                    num(e, k, f"bins.{name}[{i}]", path)
+    c = d.get("cusum")
+    if c is not None:
+        expect(isinstance(c, dict), path, "'cusum' should be an object")
+        al = c.get("alarms") or []
+        expect(isinstance(al, list), path, "'cusum.alarms' should be a list")
+        for i, a in enumerate(al):
+            expect(isinstance(a, dict), path, f"'cusum.alarms[{i}]' should be an object")
+            for k in ("t", "x", "y"):
+                num(a, k, f"cusum.alarms[{i}]", path)
+    m = d.get("map")
+    if m is not None:
+        expect(isinstance(m, dict), path, "'map' should be an object")
+        walls = m.get("walls") or []
+        expect(isinstance(walls, list) and all(isinstance(w, list) and len(w) == 4 and all(is_num(x) for x in w)
+                                               for w in walls), path,
+               "'map.walls' should be a list of [x1, y1, x2, y2]")
+    check_discovery(d, path)
+
+
+def _features(lst, where, path):
+    expect(lst is None or isinstance(lst, list), path, f"'{where}' should be a list")
+    for i, f in enumerate(lst or []):
+        expect(isinstance(f, dict), path, f"'{where}[{i}]' should be an object")
+        for k in ("coef", "sigma"):
+            num(f, k, f"{where}[{i}]", path)
+        for k in ("name", "frame", "component", "words", "with"):
+            expect(f.get(k) is None or isinstance(f[k], str), path, f"'{where}[{i}].{k}' should be a string")
+
+
+def check_discovery(d, path):
+    """The keys of discovery, change points and --with auto; each may be absent (an older
+    odoerr) or null."""
+    u = d.get("unexplained")
+    if u is not None:
+        expect(isinstance(u, dict), path, "'unexplained' should be null or an object")
+        num(u, "explained_fraction", "unexplained", path)
+        _features(u.get("features"), "unexplained.features", path)
+        _features(u.get("baseline_features"), "unexplained.baseline_features", path)
+        for k in ("motion", "beam"):
+            expect(u.get(k) is None or isinstance(u[k], dict), path, f"'unexplained.{k}' should be an object")
+    cps = d.get("change_points")
+    expect(cps is None or isinstance(cps, list), path, "'change_points' should be a list")
+    for i, c in enumerate(cps or []):
+        expect(isinstance(c, dict), path, f"'change_points[{i}]' should be an object")
+        for k in ("t", "t_lo", "t_hi", "statistic", "critical_0.1pct"):
+            num(c, k, f"change_points[{i}]", path)
+    a = d.get("auto")
+    if a is not None:
+        expect(isinstance(a, dict), path, "'auto' should be null or an object")
+        for k in ("steps", "tried", "final_with"):
+            expect(a.get(k) is None or isinstance(a[k], list), path, f"'auto.{k}' should be a list")
+        for i, st in enumerate(a.get("steps") or []):
+            expect(isinstance(st, dict), path, f"'auto.steps[{i}]' should be an object")
+            num(st, "score_z", f"auto.steps[{i}]", path)
+            num(st, "explained_fraction", f"auto.steps[{i}]", path)
+            h = st.get("heldout")
+            expect(h is None or isinstance(h, dict), path, f"'auto.steps[{i}].heldout' should be an object")
+        for i, st in enumerate(a.get("tried") or []):
+            expect(isinstance(st, dict), path, f"'auto.tried[{i}]' should be an object")
+    for i, r in enumerate(d.get("ranking") or []):
+        ex = r.get("explains")
+        expect(ex is None or isinstance(ex, dict), path, f"'ranking[{i}].explains' should be an object")
+        for k in ("motion", "beam", "total"):
+            num(ex, k, f"ranking[{i}].explains", path)
+
+
+def read_discovery_csv(path):
+    """A discovery CSV (t,row,y,fit, then a column and its partial residual per selected
+    term): (columns, terms), terms the names 'frame/component/name'; None when absent."""
+    if not os.path.isfile(path):
+        return None
+    try:
+        with open(path, newline="", encoding="utf-8") as f:
+            header = [h.strip() for h in next(csv.reader(f), [])]
+    except (OSError, UnicodeDecodeError, csv.Error) as e:
+        raise InputError(f"{path}: cannot read: {e}")
+    terms = [h for h in header if h not in ("t", "row", "y", "fit") and not h.startswith("partial_")]
+    lacking = [f"partial_{h}" for h in terms if f"partial_{h}" not in header]
+    if lacking:
+        raise InputError(f"{path}: header lacks column(s) {', '.join(lacking)} (header is: {','.join(header)})")
+    cols = read_csv(path, ["t", "row", "y", "fit"] + [c for h in terms for c in (h, f"partial_{h}")])
+    return cols, terms
+
+
+def load_inputs(d):
+    if not os.path.isdir(d):
+        raise InputError(f"{d}: not a directory (expected the output directory of odoerr diagnose)")
+    p = lambda name: os.path.join(d, name)
+    diag = read_json(p("diagnose.json"))
+    check_diagnose(diag, p("diagnose.json"))
+    scans = read_csv(p("scans.csv"), ["t", "dist_m", "x", "y", "theta", "dof", "nis_sum", "band_lo",
+                                      "band_hi", "along_m", "cross_m", "heading_rad"])
+    beams = read_csv(p("beams.csv"), ["t", "beam", "hit_x", "hit_y", "innovation_m", "nis", "status"],
+                     str_columns=("status",))
+    traj = read_csv(p("trajectory.csv"), ["t", "x", "y", "theta", "truth_x", "truth_y", "truth_theta"])
+    held = {}
+    if diag.get("heldout") is not None:
+        for k in ("before", "after"):
+            f = p(f"heldout_{k}.csv")
+            if os.path.isfile(f):
+                held[k] = read_csv(f, ["t", "nis", "pose_err_m"])
+    disc = {k: read_discovery_csv(p(f"discovery_{k}.csv")) for k in ("motion", "beam")}
+    return diag, scans, beams, traj, held, disc
