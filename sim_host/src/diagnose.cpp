@@ -12,6 +12,7 @@
 #include "diagnose/engine.hpp"
 #include "diagnose/excitation.hpp"
 #include "diagnose/heldout.hpp"
+#include "diagnose/map_misfit.hpp"
 #include "diagnose/model_search.hpp"
 #include "diagnose/ranking.hpp"
 
@@ -70,15 +71,40 @@ bool diagnoseDrive(const Odolog& log, const DiagnoseOptions& opt, json* out, std
   std::vector<std::uint8_t> scored(en.scoredSize(), 0);
   base_spec.make_scored = &scored;
   const RunOut base = en.run(base_spec);
-  const long n_innov = std::max(1L, base.n_innov);
-  const double l0 = base.loglik;
-  // 3. Every candidate scored against the reference, ranked and tested.
+  long n_innov = std::max(1L, base.n_innov);
+  double l0 = base.loglik;
+  // 3. Where the map is wrong: the residuals at the beams' hit points. Beams that end in a
+  //    region the map gets wrong say nothing about the odometry: by default they leave the
+  //    scored set (the reference is scored again on what is left), and the ranking with
+  //    them is reported too.
+  const MapMisfit map_misfit = mapMisfit(en, base, opt.map_cell_m);
+  const std::vector<std::uint8_t> scored_all = scored;
   RunSpec ref0 = en.nominalSpec(k_hat, false);
+  const bool exclude = opt.map_exclude && !map_misfit.regions.empty();
+  if (exclude) {
+    for (std::size_t k = 0; k < scored.size() && k < map_misfit.in_region.size(); ++k)
+      if (map_misfit.in_region[k]) scored[k] = 0;
+    ref0.scored = &scored;
+    const RunOut ref_run = en.run(ref0);
+    n_innov = std::max(1L, ref_run.n_innov);
+    l0 = ref_run.loglik;
+  }
+  // 4. Every candidate scored against the reference, ranked and tested.
   ref0.scored = &scored;
   Ranking<DriveT> rank(en, opt.threads);
   rank.run(ref0, l0, n_innov);
+  json ranking_other = nullptr;  // the ranking with the region beams, when they were left out
+  if (exclude) {
+    RunSpec ref_all = ref0;
+    ref_all.scored = &scored_all;
+    Ranking<DriveT> rank_all(en, opt.threads);
+    rank_all.run(ref_all, base.loglik, std::max(1L, base.n_innov));
+    ranking_other = json::array();
+    for (const RankRow& r : rank_all.rows())
+      ranking_other.push_back({{"effect", fx[r.e].name}, {"significant", r.significant}, {"p_value", r.p}});
+  }
 
-  // 4. Discovery: the residuals of the model as it is, regressed on the feature library;
+  // 5. Discovery: the residuals of the model as it is, regressed on the feature library;
   //    then with each named effect in the model, and with all of them: how much of the
   //    misfit each explains (an effect that explains little of it is not named: a wrong
   //    kind absorbs a part of a misfit, never most of it), and what is left.
@@ -184,9 +210,9 @@ bool diagnoseDrive(const Odolog& log, const DiagnoseOptions& opt, json* out, std
     }
   }
   const bool consistent = !rank.anySignificant() && st.consistent && !unexplained["significant"].template get<bool>() &&
-                          change_points.empty();
+                          change_points.empty() && map_misfit.regions.empty();
 
-  // 5. Held-out comparison (--with): catalogue effects on the catalogue's model; with
+  // 6. Held-out comparison (--with): catalogue effects on the catalogue's model; with
   //    feature terms, on the model with the feature effects, their slots configured.
   HeldoutResult held;
   json heldout = nullptr;
@@ -203,7 +229,7 @@ bool diagnoseDrive(const Odolog& log, const DiagnoseOptions& opt, json* out, std
     held = compareHeldout(before, {}, after, added, with.names, opt);
     heldout = held.json;
   }
-  // 6. --with auto: forward selection over the named effects and the discovered features.
+  // 7. --with auto: forward selection over the named effects and the discovered features.
   json automatic = nullptr;
   if (with.automatic) {
     std::vector<std::string> final_with;
@@ -234,6 +260,9 @@ bool diagnoseDrive(const Odolog& log, const DiagnoseOptions& opt, json* out, std
   j["heldout"] = heldout;
   j["unexplained"] = unexplained;
   j["change_points"] = change_points;
+  j["map_misfit"] = mapMisfitJson(map_misfit, opt.out_dir.empty() ? "" : "map_grid.csv");
+  j["map_misfit"]["region_beams"] = exclude ? "left out of the ranking" : (opt.map_exclude ? "none" : "kept (--map-beams keep)");
+  j["map_misfit"]["ranking_with_region_beams"] = ranking_other;
   if (with.automatic) j["auto"] = automatic;
   j["excitation"] = excitation;
   j["bins"] = st.bins;
@@ -257,6 +286,7 @@ bool diagnoseDrive(const Odolog& log, const DiagnoseOptions& opt, json* out, std
     // the residuals of what is left, or of the baseline when the named effects leave nothing
     const bool left = !named.empty() && unexplained["significant"].template get<bool>();
     if (!writeDiscoveryCsv(opt.out_dir, left ? res_final : res_base, error)) return false;
+    if (!writeMapCsv(opt.out_dir, map_misfit, error)) return false;
   }
   return true;
 }

@@ -391,6 +391,12 @@ int main(int argc, char** argv) {
                    "feature:NAME@TARGET or feature:BEAM_FEATURE (the feature effects), or auto")
       ->delimiter(',');
   diag->add_option("--out", dg.out_dir, "also write scans.csv, beams.csv, trajectory.csv (and heldout_*.csv) here");
+  diag->add_option("--map-cell", dg.map_cell_m, "grid cell of the residuals at the beams' hit points (m)")
+      ->check(CLI::Range(0.02, 5.0));
+  std::string map_beams = "exclude";
+  diag->add_option("--map-beams", map_beams,
+                   "beams ending where the map is wrong: exclude (from the ranking, the default) or keep")
+      ->check(CLI::IsMember({"exclude", "keep"}));
   diag->add_option("--suggest", dg.suggest_dir,
                    "write DIR/discovered_effect.hpp, a C++ effect skeleton of the features discovery found");
   diag->add_option("--threads", dg.threads, "worker threads")->check(CLI::Range(1, 64));
@@ -478,7 +484,10 @@ int main(int argc, char** argv) {
     return tape_drive == "sync" ? writeTape<SyncDrive>(tape_out, tape_seed, tape_steps, tape_every)
                                 : writeTape<DiffDrive>(tape_out, tape_seed, tape_steps, tape_every);
   }
-  if (diag->parsed()) return runDiagnose(dg_log, dg_json, dg, false);
+  if (diag->parsed()) {
+    dg.map_exclude = map_beams == "exclude";
+    return runDiagnose(dg_log, dg_json, dg, false);
+  }
   if (report->parsed()) {
     DiagnoseOptions rp;
     rp.out_dir = rp2_out;

@@ -23,6 +23,8 @@ struct DiagnoseOptions {
   std::vector<std::string> with;  ///< effects to add for the held-out comparison (catalogue names,
                                   ///< feature:NAME@TARGET, feature:BEAM_FEATURE, or auto)
   std::string suggest_dir;        ///< write a C++ effect skeleton of the discovered features here ("" = none)
+  double map_cell_m = 0.25;       ///< cell of the grid of residuals at the beams' hit points (m)
+  bool map_exclude = true;        ///< beams ending in a region the map gets wrong leave the ranking
   int threads = 2;
   double cycle_m = 0.01;
   double k0_w = 1e-4;      ///< diff: initial K_w (m)

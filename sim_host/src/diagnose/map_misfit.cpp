@@ -1,0 +1,268 @@
+#include "map_misfit.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <map>
+
+namespace odoerr::sim::diag {
+
+namespace {
+
+using json = nlohmann::ordered_json;
+
+constexpr double kClipZ = 10.0;      // a beam's normalised residual counts at most this much
+constexpr double kMinMeanZ = 1.0;    // a region's cells disagree by at least one laser sigma on average
+constexpr int kMinScans = 10;        // a cell is tested when this many scans saw it
+constexpr double kFamilyAlpha = 0.01;  // false-alarm rate over the whole map
+constexpr double kCornerM = 0.05;    // a hit this close to a wall's end may jump walls: left out
+constexpr double kMarginM = 1.0;     // the grid covers the walls' box and this much around it
+
+/// z with P(|N(0,1)| > z) = p.
+double twoSidedQuantile(double p) {
+  double lo = 0, hi = 40;
+  for (int i = 0; i < 200; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (std::erfc(mid / std::sqrt(2.0)) > p ? lo : hi) = mid;
+  }
+  return 0.5 * (lo + hi);
+}
+
+}  // namespace
+
+template <typename En>
+MapMisfit mapMisfit(const En& en, const typename En::RunOut& run, double cell_m) {
+  MapMisfit m;
+  m.cell_m = cell_m;
+  const Odolog& log = en.log();
+  const auto& laser = en.laser();
+  const int nbeams = std::max(1, laser.beams());
+  m.in_region.assign(log.scans.size() * static_cast<std::size_t>(nbeams), 0);
+  if (log.walls.empty() || run.post_beams.empty() || !(cell_m > 0)) return m;
+  double x0 = 1e300, x1 = -1e300, y0 = 1e300, y1 = -1e300;
+  for (const auto& w : log.walls) {
+    x0 = std::min({x0, w.x1, w.x2});
+    x1 = std::max({x1, w.x1, w.x2});
+    y0 = std::min({y0, w.y1, w.y2});
+    y1 = std::max({y1, w.y1, w.y2});
+  }
+  m.x0 = x0 - kMarginM;
+  m.y0 = y0 - kMarginM;
+  m.nx = static_cast<int>(std::ceil((x1 - x0 + 2 * kMarginM) / cell_m));
+  m.ny = static_cast<int>(std::ceil((y1 - y0 + 2 * kMarginM) / cell_m));
+  const std::size_t ncell = static_cast<std::size_t>(m.nx) * static_cast<std::size_t>(m.ny);
+  m.count.assign(ncell, 0);
+  m.mean.assign(ncell, 0.0);
+  m.rms.assign(ncell, 0.0);
+  m.t.assign(ncell, std::numeric_limits<double>::quiet_NaN());
+  const double sigma = std::max(1e-6, double(laser.config().sigma));
+  const auto& cfg = laser.config();
+
+  struct Hit {
+    int cell, post;
+    long key;
+    double z, mx, my;  // normalised residual; where the beam really ended
+    double hx, hy;     // where the map says it ends
+  };
+  std::vector<Hit> hits;
+  for (const PostBeam& b : run.post_beams) {
+    const PostPose& q = run.post[static_cast<std::size_t>(b.post)];
+    const Event& ev = en.events()[static_cast<std::size_t>(q.event)];
+    if (ev.scan < 0) continue;
+    const double c = std::cos(q.th), sn = std::sin(q.th);
+    const double lx = q.x + c * cfg.mount_x - sn * cfg.mount_y, ly = q.y + sn * cfg.mount_x + c * cfg.mount_y;
+    const double ux = c * laser.dirC(b.beam) - sn * laser.dirS(b.beam), uy = sn * laser.dirC(b.beam) + c * laser.dirS(b.beam);
+    const auto hit = en.map().castDir(lx, ly, ux, uy);
+    if (!hit.hit) continue;
+    const double hx = lx + hit.range * ux, hy = ly + hit.range * uy;
+    const auto& w = log.walls[static_cast<std::size_t>(hit.wall)];
+    if (std::hypot(hx - w.x1, hy - w.y1) < kCornerM || std::hypot(hx - w.x2, hy - w.y2) < kCornerM) continue;
+    const int cx = static_cast<int>(std::floor((hx - m.x0) / cell_m)), cy = static_cast<int>(std::floor((hy - m.y0) / cell_m));
+    if (cx < 0 || cy < 0 || cx >= m.nx || cy >= m.ny) continue;
+    const double z = std::clamp(b.nu / sigma, -kClipZ, kClipZ);
+    const double rm = hit.range + b.nu;
+    hits.push_back({cy * m.nx + cx, b.post, static_cast<long>(ev.scan) * nbeams + b.beam, z, lx + rm * ux, ly + rm * uy,
+                    hx, hy});
+  }
+  // Per cell: the beams, and the scans (beams of one scan share its pose error, so the
+  // test counts scans, not beams: per-scan means, then a t over them).
+  std::vector<double> sum(ncell, 0.0), sum2(ncell, 0.0);
+  std::vector<std::map<int, std::pair<double, int>>> per_scan(ncell);
+  for (const Hit& h : hits) {
+    const std::size_t k = static_cast<std::size_t>(h.cell);
+    ++m.count[k];
+    sum[k] += h.z;
+    sum2[k] += h.z * h.z;
+    auto& s = per_scan[k][h.post];
+    s.first += h.z;
+    s.second += 1;
+  }
+  for (std::size_t k = 0; k < ncell; ++k) {
+    if (m.count[k] == 0) continue;
+    m.mean[k] = sum[k] / double(m.count[k]);
+    m.rms[k] = std::sqrt(sum2[k] / double(m.count[k]));
+    const int ns = static_cast<int>(per_scan[k].size());
+    if (ns < kMinScans) continue;
+    double a = 0, a2 = 0;
+    for (const auto& [post, s] : per_scan[k]) {
+      const double v = s.first / s.second;
+      a += v;
+      a2 += v * v;
+    }
+    const double mu = a / ns, var = std::max(0.0, (a2 - ns * mu * mu) / (ns - 1));
+    m.t[k] = var > 0 ? mu / std::sqrt(var / ns) : (mu != 0 ? std::copysign(1e9, mu) : 0.0);
+    ++m.tested;
+  }
+  m.t_crit = m.tested > 0 ? twoSidedQuantile(kFamilyAlpha / m.tested) : 0.0;
+  // Flagged cells, then connected regions (8 neighbours) of one sign.
+  std::vector<int> sign(ncell, 0), label(ncell, -1);
+  for (std::size_t k = 0; k < ncell; ++k)
+    if (std::isfinite(m.t[k]) && std::abs(m.t[k]) > m.t_crit && std::abs(m.mean[k]) >= kMinMeanZ)
+      sign[k] = m.mean[k] < 0 ? -1 : 1;
+  for (std::size_t k0 = 0; k0 < ncell; ++k0) {
+    if (sign[k0] == 0 || label[k0] >= 0) continue;
+    MapRegion r;
+    r.short_ = sign[k0] < 0;
+    const int id = static_cast<int>(m.regions.size());
+    std::vector<int> stack{static_cast<int>(k0)};
+    label[k0] = id;
+    while (!stack.empty()) {
+      const int k = stack.back();
+      stack.pop_back();
+      r.cells.push_back(k);
+      const int cx = k % m.nx, cy = k / m.nx;
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) {
+          const int ax = cx + dx, ay = cy + dy;
+          if (ax < 0 || ay < 0 || ax >= m.nx || ay >= m.ny) continue;
+          const std::size_t a = static_cast<std::size_t>(ay * m.nx + ax);
+          if (sign[a] != sign[k0] || label[a] >= 0) continue;
+          label[a] = id;
+          stack.push_back(static_cast<int>(a));
+        }
+    }
+    m.regions.push_back(r);
+  }
+  // Region figures from their beams.
+  for (std::size_t i = 0; i < m.regions.size(); ++i) {
+    MapRegion& r = m.regions[i];
+    double sx = 0, sy = 0, sz = 0;
+    int cx0 = m.nx, cx1 = -1, cy0 = m.ny, cy1 = -1;
+    for (int k : r.cells) {
+      cx0 = std::min(cx0, k % m.nx);
+      cx1 = std::max(cx1, k % m.nx);
+      cy0 = std::min(cy0, k / m.nx);
+      cy1 = std::max(cy1, k / m.nx);
+    }
+    r.w = (cx1 - cx0 + 1) * cell_m;
+    r.h = (cy1 - cy0 + 1) * cell_m;
+    std::vector<int> posts;
+    Eigen::Matrix2d cov = Eigen::Matrix2d::Zero();
+    Eigen::Vector2d mm = Eigen::Vector2d::Zero();
+    for (const Hit& h : hits) {
+      if (label[static_cast<std::size_t>(h.cell)] != static_cast<int>(i)) continue;
+      ++r.beams;
+      sx += h.hx;
+      sy += h.hy;
+      sz += h.z;
+      mm += Eigen::Vector2d(h.mx, h.my);
+      posts.push_back(h.post);
+      if (h.key >= 0 && static_cast<std::size_t>(h.key) < m.in_region.size()) m.in_region[static_cast<std::size_t>(h.key)] = 1;
+    }
+    if (r.beams == 0) continue;
+    r.x = sx / double(r.beams);
+    r.y = sy / double(r.beams);
+    r.mean_norm = sz / double(r.beams);
+    mm /= double(r.beams);
+    for (const Hit& h : hits)
+      if (label[static_cast<std::size_t>(h.cell)] == static_cast<int>(i)) {
+        const Eigen::Vector2d d(h.mx - mm[0], h.my - mm[1]);
+        cov += d * d.transpose();
+      }
+    std::sort(posts.begin(), posts.end());
+    posts.erase(std::unique(posts.begin(), posts.end()), posts.end());
+    r.poses = static_cast<int>(posts.size());
+    for (int j = 0; j < 6 && !posts.empty(); ++j) {
+      const PostPose& q = run.post[static_cast<std::size_t>(posts[posts.size() * static_cast<std::size_t>(j) / 6])];
+      r.seen_from.push_back({q.x, q.y});
+    }
+    // A candidate wall: where the beams really ended lies along a line, seen from many
+    // poses (the measured points, not the map's: they are where the thing is).
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> es(cov / double(r.beams));
+    const double l0 = es.eigenvalues()[0], l1 = es.eigenvalues()[1];
+    if (r.poses >= 20 && l1 > 0 && l0 < l1 / 25) {
+      const Eigen::Vector2d dir = es.eigenvectors().col(1);
+      double pmin = 1e300, pmax = -1e300;
+      for (const Hit& h : hits)
+        if (label[static_cast<std::size_t>(h.cell)] == static_cast<int>(i)) {
+          const double p = dir.dot(Eigen::Vector2d(h.mx, h.my) - mm);
+          pmin = std::min(pmin, p);
+          pmax = std::max(pmax, p);
+        }
+      r.has_segment = true;
+      r.seg[0] = mm[0] + pmin * dir[0];
+      r.seg[1] = mm[1] + pmin * dir[1];
+      r.seg[2] = mm[0] + pmax * dir[0];
+      r.seg[3] = mm[1] + pmax * dir[1];
+    }
+  }
+  // largest evidence first
+  std::sort(m.regions.begin(), m.regions.end(), [](const MapRegion& a, const MapRegion& b) {
+    return std::abs(a.mean_norm) * double(a.beams) > std::abs(b.mean_norm) * double(b.beams);
+  });
+  return m;
+}
+
+json mapMisfitJson(const MapMisfit& m, const std::string& grid_csv) {
+  json regions = json::array();
+  for (const MapRegion& r : m.regions) {
+    json seen = json::array();
+    for (const auto& p : r.seen_from) seen.push_back({p[0], p[1]});
+    regions.push_back({{"x", r.x},
+                       {"y", r.y},
+                       {"extent_m", {r.w, r.h}},
+                       {"sign", r.short_ ? "short" : "long"},
+                       {"beams", r.beams},
+                       {"mean_norm", r.mean_norm},
+                       {"scans", r.poses},
+                       {"seen_from", seen},
+                       {"candidate_segment", r.has_segment ? json({r.seg[0], r.seg[1], r.seg[2], r.seg[3]}) : json(nullptr)}});
+  }
+  return {{"cell_m", m.cell_m},
+          {"grid", {{"x0", m.x0}, {"y0", m.y0}, {"nx", m.nx}, {"ny", m.ny}}},
+          {"cells_tested", m.tested},
+          {"t_critical", m.t_crit},
+          {"family_alpha", kFamilyAlpha},
+          {"regions", regions},
+          {"grid_csv", grid_csv}};
+}
+
+bool writeMapCsv(const std::string& dir, const MapMisfit& m, std::string* error) {
+  const std::string path = dir + "/map_grid.csv";
+  FILE* f = std::fopen(path.c_str(), "w");
+  if (f == nullptr) {
+    *error = "cannot write '" + path + "'";
+    return false;
+  }
+  std::vector<int> region(m.count.size(), -1);
+  for (std::size_t i = 0; i < m.regions.size(); ++i)
+    for (int k : m.regions[i].cells) region[static_cast<std::size_t>(k)] = static_cast<int>(i);
+  std::fprintf(f, "x,y,count,mean_norm,rms_norm,t,region\n");
+  for (std::size_t k = 0; k < m.count.size(); ++k) {
+    if (m.count[k] == 0) continue;
+    const double x = m.x0 + (double(k % static_cast<std::size_t>(m.nx)) + 0.5) * m.cell_m;
+    const double y = m.y0 + (double(k / static_cast<std::size_t>(m.nx)) + 0.5) * m.cell_m;
+    std::fprintf(f, "%.3f,%.3f,%ld,%.4f,%.4f,%.3f,%d\n", x, y, m.count[k], m.mean[k], m.rms[k],
+                 std::isfinite(m.t[k]) ? m.t[k] : 0.0, region[k]);
+  }
+  const bool ok = std::ferror(f) == 0;
+  std::fclose(f);
+  if (!ok) *error = "cannot write '" + path + "'";
+  return ok;
+}
+
+template MapMisfit mapMisfit<Engine<SyncDrive>>(const Engine<SyncDrive>&, const Engine<SyncDrive>::RunOut&, double);
+template MapMisfit mapMisfit<Engine<DiffDrive>>(const Engine<DiffDrive>&, const Engine<DiffDrive>::RunOut&, double);
+
+}  // namespace odoerr::sim::diag

@@ -1,0 +1,58 @@
+// diagnose, where the map is wrong: every beam's residual at the posterior, accumulated
+// where the beam ends (its predicted hit point in map coordinates) on a grid, and the
+// connected regions whose ranges are consistently shorter than the map says (an object the
+// map lacks) or longer (a wall that is gone, a door open, a wall drawn too near). The
+// binning by the robot's state cannot see these: a map error lives at the end of the beam.
+// docs/diagnostics.md ("Where the map is wrong") states the rules.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "engine.hpp"
+
+namespace odoerr::sim::diag {
+
+/// One region of the map that the ranges disagree with.
+struct MapRegion {
+  double x = 0, y = 0;          ///< beam-weighted centre of the predicted hit points (m)
+  double w = 0, h = 0;          ///< extent of its cells (m)
+  bool short_ = true;           ///< ranges shorter than the map says
+  long beams = 0;
+  double mean_norm = 0;         ///< mean normalised residual (clipped at +-kClipZ)
+  std::vector<std::array<double, 2>> seen_from;  ///< a few robot positions it was seen from
+  int poses = 0;                ///< distinct scans that saw it
+  bool has_segment = false;
+  double seg[4] = {0, 0, 0, 0};  ///< candidate wall: where the beams really ended, as a line
+  std::vector<int> cells;        ///< grid cells (row-major index)
+};
+
+struct MapMisfit {
+  double cell_m = 0.25;
+  double x0 = 0, y0 = 0;  ///< grid origin
+  int nx = 0, ny = 0;
+  std::vector<long> count;         ///< beams per cell
+  std::vector<double> mean, rms;   ///< normalised residual per cell
+  std::vector<double> t;           ///< per-cell t over scans (NaN: not tested)
+  double t_crit = 0;               ///< Bonferroni threshold over the tested cells
+  int tested = 0;
+  std::vector<MapRegion> regions;
+  /// Per beam of the run (scan * beams + beam): its predicted hit falls in a region.
+  std::vector<std::uint8_t> in_region;
+};
+
+/// The grid and the regions from a run recorded with `residuals`.
+template <typename En>
+MapMisfit mapMisfit(const En& en, const typename En::RunOut& run, double cell_m);
+
+/// The "map_misfit" object of the contract (grid_csv: the file written by writeMapCsv, or "").
+nlohmann::ordered_json mapMisfitJson(const MapMisfit& m, const std::string& grid_csv);
+
+/// DIR/map_grid.csv: cell centre, count, mean and RMS of the normalised residual, t, region.
+bool writeMapCsv(const std::string& dir, const MapMisfit& m, std::string* error);
+
+}  // namespace odoerr::sim::diag
