@@ -2,6 +2,7 @@
 // tokens and words.
 #include <gtest/gtest.h>
 
+#include "diagnose/map_misfit.hpp"
 #include "diagnose/model_search.hpp"
 
 using namespace odoerr;
@@ -83,4 +84,46 @@ TEST(DiagnoseTerms, FramesTokensAndWords) {
                    effects::BeamFeature::kAlphaAngleSens};
   EXPECT_EQ(scale.frame(), "beam");
   EXPECT_NE(scale.words(0.002, 0.00004).find("scaled by 1 +0.0020"), std::string::npos) << scale.words(0.002, 0.00004);
+}
+
+// The hit point of a beam, against hand-computed cases: a 10 m room, a laser 0.1 m ahead of
+// the robot centre, 4 beams at -180, -90, 0 and 90 degrees.
+TEST(DiagnoseMap, BeamHitPoints) {
+  SegmentMap<double, 16> map;
+  ASSERT_TRUE(map.add({0, 0, 10, 0}) && map.add({10, 0, 10, 10}) && map.add({10, 10, 0, 10}) && map.add({0, 10, 0, 0}));
+  LaserConfig<double> cfg;
+  cfg.beams = 4;
+  cfg.angle_min = -kPi<double>;
+  cfg.angle_inc = kPi<double> / 2;
+  cfg.mount_x = 0.1;
+  LaserGeometry<double, 64> laser;
+  ASSERT_TRUE(laser.init(cfg));
+  BeamHit h;
+  // robot at (2, 5) heading +x: beam 2 (0 deg) from the laser at (2.1, 5) ends at (10, 5)
+  ASSERT_TRUE(beamHit(map, laser, 2.0, 5.0, 0.0, 2, &h));
+  EXPECT_NEAR(h.range, 7.9, 1e-12);
+  EXPECT_NEAR(h.hx, 10.0, 1e-12);
+  EXPECT_NEAR(h.hy, 5.0, 1e-12);
+  EXPECT_EQ(h.wall, 1);
+  // beam 3 (+90 deg) ends on the top wall above the laser: (2.1, 10), 5 m
+  ASSERT_TRUE(beamHit(map, laser, 2.0, 5.0, 0.0, 3, &h));
+  EXPECT_NEAR(h.hx, 2.1, 1e-12);
+  EXPECT_NEAR(h.hy, 10.0, 1e-12);
+  EXPECT_NEAR(h.range, 5.0, 1e-12);
+  EXPECT_EQ(h.wall, 2);
+  // heading +90 deg: the laser sits at (2, 5.1); beam 2 points up, 4.9 m to (2, 10); beam 0
+  // (-180 deg) points down, 5.1 m to (2, 0)
+  ASSERT_TRUE(beamHit(map, laser, 2.0, 5.0, kPi<double> / 2, 2, &h));
+  EXPECT_NEAR(h.range, 4.9, 1e-9);
+  EXPECT_NEAR(h.hx, 2.0, 1e-9);
+  EXPECT_NEAR(h.hy, 10.0, 1e-9);
+  ASSERT_TRUE(beamHit(map, laser, 2.0, 5.0, kPi<double> / 2, 0, &h));
+  EXPECT_NEAR(h.range, 5.1, 1e-9);
+  EXPECT_NEAR(h.hy, 0.0, 1e-9);
+  EXPECT_EQ(h.wall, 0);
+  // an oblique beam: heading 45 deg from (5, 5), beam 2 runs along the diagonal to (10, 10)
+  ASSERT_TRUE(beamHit(map, laser, 5.0, 5.0, kPi<double> / 4, 2, &h));
+  EXPECT_NEAR(h.hx, 10.0, 1e-9);
+  EXPECT_NEAR(h.hy, 10.0, 1e-9);
+  EXPECT_NEAR(h.range, std::sqrt(50.0) - 0.1, 1e-9);
 }

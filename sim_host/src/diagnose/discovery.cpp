@@ -1,5 +1,7 @@
 #include "discovery.hpp"
 
+#include "map_misfit.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -277,12 +279,8 @@ std::vector<LaserPose> Discovery<En>::laserPoses(const RunOut& run) const {
   const auto& map = en_.map();
   const double sigma = std::max(1e-6, double(laser.config().sigma));
   auto cast = [&](double x, double y, double th, int b) {
-    const auto& cfg = laser.config();
-    const double c = std::cos(th), sn = std::sin(th);
-    const double lx = x + c * cfg.mount_x - sn * cfg.mount_y, ly = y + sn * cfg.mount_x + c * cfg.mount_y;
-    const double ux = c * laser.dirC(b) - sn * laser.dirS(b), uy = sn * laser.dirC(b) + c * laser.dirS(b);
-    const auto hit = map.castDir(lx, ly, ux, uy);
-    return hit.hit ? hit.range : std::numeric_limits<double>::quiet_NaN();
+    BeamHit h;
+    return beamHit(map, laser, x, y, th, b, &h) ? h.range : std::numeric_limits<double>::quiet_NaN();
   };
   std::size_t k = 0;
   while (k < run.post_beams.size()) {

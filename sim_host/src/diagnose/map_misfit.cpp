@@ -57,7 +57,6 @@ MapMisfit mapMisfit(const En& en, const typename En::RunOut& run, double cell_m)
   m.rms.assign(ncell, 0.0);
   m.t.assign(ncell, std::numeric_limits<double>::quiet_NaN());
   const double sigma = std::max(1e-6, double(laser.config().sigma));
-  const auto& cfg = laser.config();
 
   struct Hit {
     int cell, post;
@@ -70,20 +69,17 @@ MapMisfit mapMisfit(const En& en, const typename En::RunOut& run, double cell_m)
     const PostPose& q = run.post[static_cast<std::size_t>(b.post)];
     const Event& ev = en.events()[static_cast<std::size_t>(q.event)];
     if (ev.scan < 0) continue;
-    const double c = std::cos(q.th), sn = std::sin(q.th);
-    const double lx = q.x + c * cfg.mount_x - sn * cfg.mount_y, ly = q.y + sn * cfg.mount_x + c * cfg.mount_y;
-    const double ux = c * laser.dirC(b.beam) - sn * laser.dirS(b.beam), uy = sn * laser.dirC(b.beam) + c * laser.dirS(b.beam);
-    const auto hit = en.map().castDir(lx, ly, ux, uy);
-    if (!hit.hit) continue;
-    const double hx = lx + hit.range * ux, hy = ly + hit.range * uy;
-    const auto& w = log.walls[static_cast<std::size_t>(hit.wall)];
+    BeamHit bh;
+    if (!beamHit(en.map(), laser, q.x, q.y, q.th, b.beam, &bh)) continue;
+    const double hx = bh.hx, hy = bh.hy;
+    const auto& w = log.walls[static_cast<std::size_t>(bh.wall)];
     if (std::hypot(hx - w.x1, hy - w.y1) < kCornerM || std::hypot(hx - w.x2, hy - w.y2) < kCornerM) continue;
     const int cx = static_cast<int>(std::floor((hx - m.x0) / cell_m)), cy = static_cast<int>(std::floor((hy - m.y0) / cell_m));
     if (cx < 0 || cy < 0 || cx >= m.nx || cy >= m.ny) continue;
     const double z = std::clamp(b.nu / sigma, -kClipZ, kClipZ);
-    const double rm = hit.range + b.nu;
-    hits.push_back({cy * m.nx + cx, b.post, static_cast<long>(ev.scan) * nbeams + b.beam, z, lx + rm * ux, ly + rm * uy,
-                    hx, hy});
+    const double rm = bh.range + b.nu;
+    hits.push_back({cy * m.nx + cx, b.post, static_cast<long>(ev.scan) * nbeams + b.beam, z, bh.lx + rm * bh.ux,
+                    bh.ly + rm * bh.uy, hx, hy});
   }
   // Per cell: the beams, and the scans (beams of one scan share its pose error, so the
   // test counts scans, not beams: per-scan means, then a t over them).

@@ -7,6 +7,7 @@
 #pragma once
 
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -44,6 +45,33 @@ struct MapMisfit {
   /// Per beam of the run (scan * beams + beam): its predicted hit falls in a region.
   std::vector<std::uint8_t> in_region;
 };
+
+/// Where beam `beam` of `laser` ends on `map` from the robot pose (x, y, theta), as the
+/// filter casts it (mount offset and yaw included): the laser's position (lx, ly), the
+/// ray's unit direction (ux, uy), the range, the hit point and the wall. False when the
+/// beam hits no wall.
+struct BeamHit {
+  double lx, ly, ux, uy, range, hx, hy;
+  int wall;
+};
+template <typename MapT, typename LaserT>
+bool beamHit(const MapT& map, const LaserT& laser, double x, double y, double theta, int beam, BeamHit* out) {
+  const auto& cfg = laser.config();
+  const double c = std::cos(theta), sn = std::sin(theta);
+  BeamHit h{};
+  h.lx = x + c * cfg.mount_x - sn * cfg.mount_y;
+  h.ly = y + sn * cfg.mount_x + c * cfg.mount_y;
+  h.ux = c * laser.dirC(beam) - sn * laser.dirS(beam);
+  h.uy = sn * laser.dirC(beam) + c * laser.dirS(beam);
+  const auto hit = map.castDir(h.lx, h.ly, h.ux, h.uy);
+  if (!hit.hit) return false;
+  h.range = hit.range;
+  h.hx = h.lx + hit.range * h.ux;
+  h.hy = h.ly + hit.range * h.uy;
+  h.wall = hit.wall;
+  *out = h;
+  return true;
+}
 
 /// The grid and the regions from a run recorded with `residuals`.
 template <typename En>
