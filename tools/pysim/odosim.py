@@ -140,7 +140,7 @@ neither the robot's path nor region_scale's grid (the bounding box of the true w
 ``wall_offset`` (an effect: the WORLD's wall moved) and ``shift`` (the MAP's wall moved)
 compose: a wall with o_w = d and shift d is written where it really is.
 Suggested test placements (``--list-map-errors``; each met by more than a thousand beams
-in more than a thousand scans of a 4-minute drive of seeds 21 and 22, from all around,
+in more than a thousand scans of a 4-minute drive of seeds 21 and 22, from many poses,
 and at least 1.25 m from the path):
     cabinet     object=5.0,0.2,0.6,0.4    a 0.6 x 0.4 cabinet against the bottom wall
                                           (x 4.7..5.3, y 0..0.4): 2794 / 2545 beams
