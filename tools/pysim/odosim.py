@@ -13,8 +13,9 @@ Usage
 -----
     python3 tools/pysim/odosim.py --out FILE [--drive diff|sync] [--seed N]
                                   [--minutes M] [--effect NAME=V1[,V2...]]...
-                                  [--noisy-rates]
+                                  [--noisy-rates] [--map-error KIND=V1,...]...
     python3 tools/pysim/odosim.py --list-effects
+    python3 tools/pysim/odosim.py --list-map-errors
 
 ``--effect`` may be repeated (catalogue effects, per-wheel effects and out-of-catalogue
 ``ooc_`` forms below, in any combination); the values are the effect's parameters in the
@@ -101,6 +102,62 @@ Measurement effects change the ranges:
     wall_offset o_1..o_W wall w lies o_w along its left unit normal
 Ray casting is exact against the true (possibly offset) segments; Gaussian range noise
 sigma = 0.03 m is added last; no return (or a true range beyond range_max) gives nan.
+
+Map errors (``--map-error``, independent of ``--effect``)
+-------------------------------------------------------
+A building's map is never the building. ``--map-error KIND=V1,...`` (repeatable, kinds
+in any combination, each kind more than once) makes the map written as ``wall`` records
+differ from the world the laser sees; the robot, its odometry and its laser are those of
+the drive without map errors (the same seed gives the same motion, encoders, truth and
+range-noise draws with or without them: the ranges differ only where a beam meets the
+error). Each is also written as ``meta truth_map_error KIND V1 ...`` (after the
+``truth_effect`` records), so the log carries its own truth.
+    object=x,y,w,h    an axis-aligned box, centre (x, y), size w x h m (w along x), that
+                      stands in the world (the laser sees it and it occludes what is
+                      behind it) but is NOT in the wall records: a cabinet moved in, a
+                      pallet, a pillar left out of the drawing. Beams that meet it come
+                      back SHORTER than the map predicts. It must lie inside the room and
+                      keep OBJECT_CLEARANCE = 0.5 m from the reference path (the robot
+                      would drive through it otherwise): refused with exit status 2.
+    phantom=x1,y1,x2,y2
+                      a wall written into the map (a ``wall`` record after the real ones)
+                      that does not exist in the world: a door drawn closed, a partition
+                      taken down. Beams the map says stop at it go further: LONGER than
+                      predicted. It must have a length > 0 and lie inside the room.
+    shift=i,d         map wall i (0-based index of the written ``wall`` records; the real
+                      walls come first, in the order of the World section, so 0..W-1)
+                      written d metres along its left unit normal from where it really is:
+                      a wall drawn in the wrong place. The polygons are counter-clockwise,
+                      so d > 0 moves a room wall INTO the room (nearer to the robot: the
+                      ranges are LONGER than predicted) and a box wall INTO its box (further
+                      from the robot: SHORTER). Only the written end points move (the
+                      corners of the neighbouring walls stay where they are). |d| <= 1 m,
+                      i an integer in 0..W-1, each wall shifted at most once.
+Refused with exit status 2: an unknown kind, a wrong value count, values that are not
+finite numbers, w or h <= 0, a zero-length phantom, an index out of range. An object or
+a phantom may overlap a real wall (a cabinet against a wall). The map errors change
+neither the robot's path nor region_scale's grid (the bounding box of the true walls).
+``wall_offset`` (an effect: the WORLD's wall moved) and ``shift`` (the MAP's wall moved)
+compose: a wall with o_w = d and shift d is written where it really is.
+Suggested test placements (``--list-map-errors``; each met by more than a thousand beams
+in more than a thousand scans of a 4-minute drive of seeds 21 and 22, from many poses,
+and at least 1.25 m from the path):
+    cabinet     object=5.0,0.2,0.6,0.4    a 0.6 x 0.4 cabinet against the bottom wall
+                                          (x 4.7..5.3, y 0..0.4): 2794 / 2545 beams
+    pillar      object=4.3,3.2,0.3,0.3    a 0.3 x 0.3 pillar in the open, at the centre
+                                          of the lower lobe (1.25 m from the path):
+                                          2791 / 2610 beams
+    pallet      object=7.5,3.0,1.0,0.5    a 1.0 x 0.5 pallet in the open right of the
+                                          lower lobe (x 7..8, y 2.75..3.25): 3614 / 3559
+    phantom     phantom=1.5,3.0,1.5,4.5   a 1.5 m partition drawn at x = 1.5 (1.4 m left
+                                          of the path, 1.5 m in front of the left wall):
+                                          the map's first wall for 5131 / 5246 beams
+    shift_room  shift=0,0.10              the bottom room wall drawn 0.10 m into the room
+                                          (at y = 0.10; ranges longer): 24790 / 23595
+    shift_box   shift=4,0.10              the bottom wall of the 1.2 m box drawn 0.10 m
+                                          into the box (at y = 6.10; ranges shorter):
+                                          1663 / 1380 beams
+(beams met on seeds 21 / 22; odosim prints the count of every map error it injects.)
 
 Per-wheel catalogue effects (diff drive only; refused for sync with exit status 2)
 ---------------------------------------------------------------------------------
@@ -256,6 +313,8 @@ RANGE_MAX = 20.0
 RANGE_SIGMA = 0.03
 MOUNT = (0.1, 0.0, 0.0)   # x, y, yaw in the robot frame
 INCIDENCE_COS_MIN = math.cos(math.radians(80.0))   # ooc_incidence_bias saturates at 80 deg
+OBJECT_CLEARANCE = 0.5    # m, least distance of a --map-error object from the reference path
+SHIFT_MAX = 1.0           # m, largest |d| of a --map-error shift
 
 # Map: each polygon counter-clockwise; walls are consecutive vertex pairs.
 ROOM = [(0.0, 0.0), (10.0, 0.0), (10.0, 10.0), (0.0, 10.0)]
@@ -368,6 +427,140 @@ def parse_effects(specs, parser):
             parser.error("--effect turn_noise: q must be >= 0 (it is a variance rate)")
         effects[name] = values
     return effects
+
+
+# ---------------------------------------------------------------------------
+# Map errors: the map written differs from the world the laser sees
+# ---------------------------------------------------------------------------
+
+# kind -> (number of values, summary)
+MAP_ERRORS = {
+    "object": (4, "x, y, w, h (m): a box centred at (x, y), w x h, in the world, not in "
+                  "the map (ranges shorter)"),
+    "phantom": (4, "x1, y1, x2, y2 (m): a wall in the map, not in the world (ranges longer)"),
+    "shift": (2, "i, d (index, m): map wall i written d along its left normal"),
+}
+
+# Suggested test placements (tests/diagnose/check_map.py): name -> (kind, values, note)
+MAP_ERROR_CASES = {
+    "cabinet": ("object", [5.0, 0.2, 0.6, 0.4],
+                "0.6 x 0.4 cabinet against the bottom wall (y 0..0.4)"),
+    "pillar": ("object", [4.3, 3.2, 0.3, 0.3],
+               "0.3 x 0.3 pillar in the open, at the centre of the lower lobe"),
+    "pallet": ("object", [7.5, 3.0, 1.0, 0.5],
+               "1.0 x 0.5 pallet in the open, right of the lower lobe"),
+    "phantom": ("phantom", [1.5, 3.0, 1.5, 4.5],
+                "1.5 m partition drawn at x = 1.5 that is not there"),
+    "shift_room": ("shift", [0, 0.10],
+                   "bottom room wall (index 0) drawn 0.10 m into the room"),
+    "shift_box": ("shift", [4, 0.10],
+                  "bottom wall of the 1.2 m box (index 4) drawn 0.10 m into the box"),
+}
+
+
+def box_walls(x, y, w, h):
+    """Segments of an axis-aligned box, counter-clockwise."""
+    x0, x1, y0, y1 = x - w / 2.0, x + w / 2.0, y - h / 2.0, y + h / 2.0
+    return polygon_walls([(x0, y0), (x1, y0), (x1, y1), (x0, y1)])
+
+
+def segment_distance(px, py, seg):
+    """Distance of the points (px, py) (arrays) from the segment (x1, y1, x2, y2)."""
+    x1, y1, x2, y2 = seg
+    ex, ey = x2 - x1, y2 - y1
+    ee = ex * ex + ey * ey
+    u = np.clip(((px - x1) * ex + (py - y1) * ey) / ee, 0.0, 1.0) if ee > 0 else 0.0
+    return np.hypot(px - x1 - u * ex, py - y1 - u * ey)
+
+
+def box_distance(px, py, x, y, w, h):
+    """Distance of the points (px, py) from the filled box (0 inside)."""
+    dx = np.maximum(np.abs(px - x) - w / 2.0, 0.0)
+    dy = np.maximum(np.abs(py - y) - h / 2.0, 0.0)
+    return np.hypot(dx, dy)
+
+
+def parse_map_errors(specs, parser, path=None):
+    """['kind=v1,...', ...] -> {"object": [[x, y, w, h]..], "phantom": [[..]..],
+    "shift": [[i, d]..]} (kinds absent when not given); errors go through parser.error
+    (exit 2). With a Path, an object closer than OBJECT_CLEARANCE to it is refused."""
+    out = {}
+    rx = [p[0] for p in ROOM]
+    ry = [p[1] for p in ROOM]
+    room = (min(rx), max(rx), min(ry), max(ry))
+
+    def inside(x, y):
+        return room[0] <= x <= room[1] and room[2] <= y <= room[3]
+
+    for spec in specs:
+        if "=" not in spec:
+            parser.error(f"--map-error {spec!r}: expected KIND=V1,... with KIND one of "
+                         + ", ".join(MAP_ERRORS))
+        kind, _, vals = spec.partition("=")
+        kind = kind.strip()
+        if kind not in MAP_ERRORS:
+            parser.error(f"--map-error: unknown kind {kind!r}; known: " + ", ".join(MAP_ERRORS))
+        try:
+            values = [float(v) for v in vals.split(",")]
+        except ValueError:
+            parser.error(f"--map-error {spec!r}: values must be numbers separated by commas")
+        if not all(math.isfinite(v) for v in values):
+            parser.error(f"--map-error {spec!r}: values must be finite")
+        count = MAP_ERRORS[kind][0]
+        if len(values) != count:
+            parser.error(f"--map-error {kind}: takes {count} values "
+                         f"({MAP_ERRORS[kind][1].split(':')[0]}), got {len(values)}")
+        if kind == "object":
+            x, y, w, h = values
+            if w <= 0.0 or h <= 0.0:
+                parser.error(f"--map-error {spec!r}: the size w, h must be > 0")
+            if not (inside(x - w / 2, y - h / 2) and inside(x + w / 2, y + h / 2)):
+                parser.error(f"--map-error {spec!r}: the object must lie inside the room "
+                             f"({room[0]:g}..{room[1]:g} x {room[2]:g}..{room[3]:g})")
+            if path is not None:
+                d = float(box_distance(path.x_grid, path.y_grid, x, y, w, h).min())
+                if d < OBJECT_CLEARANCE:
+                    parser.error(f"--map-error {spec!r}: the object is {d:.2f} m from the "
+                                 f"robot's path (it needs >= {OBJECT_CLEARANCE} m, or the "
+                                 "robot would drive through it); the path is a figure-eight "
+                                 "of circles centred (4.3, 3.2) r 1.4 and (4.3, 7.2) r 1.0 "
+                                 "joined by their crossing tangents")
+        elif kind == "phantom":
+            x1, y1, x2, y2 = values
+            if math.hypot(x2 - x1, y2 - y1) <= 1e-6:
+                parser.error(f"--map-error {spec!r}: the phantom wall has zero length")
+            if not (inside(x1, y1) and inside(x2, y2)):
+                parser.error(f"--map-error {spec!r}: the phantom wall must lie inside the room")
+        else:
+            i, d = values
+            if i != int(i) or not 0 <= int(i) < len(WALLS):
+                parser.error(f"--map-error {spec!r}: the wall index must be an integer in "
+                             f"0..{len(WALLS) - 1} (the real walls' records)")
+            if abs(d) > SHIFT_MAX:
+                parser.error(f"--map-error {spec!r}: |d| must be <= {SHIFT_MAX:g} m")
+            values = [int(i), d]
+            if any(v[0] == values[0] for v in out.get("shift", [])):
+                parser.error(f"--map-error shift: wall {values[0]} shifted twice")
+        out.setdefault(kind, []).append(values)
+    return out
+
+
+def map_walls(map_errors):
+    """The wall records written: the real walls (shifted as asked), then the phantoms."""
+    walls = [list(map(float, w)) for w in WALLS]
+    for i, d in (map_errors or {}).get("shift", []):
+        x1, y1, x2, y2 = walls[i]
+        length = math.hypot(x2 - x1, y2 - y1)
+        nx, ny = -(y2 - y1) / length, (x2 - x1) / length
+        walls[i] = [x1 + d * nx, y1 + d * ny, x2 + d * nx, y2 + d * ny]
+    walls += [list(map(float, p)) for p in (map_errors or {}).get("phantom", [])]
+    return walls
+
+
+def object_walls(map_errors):
+    """Segments of the map errors' objects (in the world, not in the map), shape (K, 4)."""
+    segs = [s for o in (map_errors or {}).get("object", []) for s in box_walls(*o)]
+    return np.array(segs, dtype=float).reshape(-1, 4)
 
 
 # ---------------------------------------------------------------------------
@@ -771,8 +964,13 @@ def cast_rays(ox, oy, ang, walls, incidence=False):
     return rng, np.where(np.isfinite(rng), cos_inc, np.nan)
 
 
-def simulate_scans(truth, n_steps, effects, rng_scan):
-    """Scan times (S,) and ranges (S, B) with nan for no return."""
+def simulate_scans(truth, n_steps, effects, rng_scan, map_errors=None, seen=None):
+    """Scan times (S,) and ranges (S, B) with nan for no return. map_errors: the
+    objects of parse_map_errors stand in the world (phantoms and shifts change only the
+    map written). A list given as ``seen`` receives, per map error, (kind, values,
+    beams, scans): how many beams (in how many scans) meet it: an object that is the
+    first thing a beam hits, a phantom or shifted wall that is the map's first wall on
+    the beam (its predicted hit)."""
     k_scan = np.arange(SCAN_EVERY, n_steps + 1, SCAN_EVERY)
     t_scan = k_scan * DT
     t_truth = np.arange(n_steps + 1) * DT
@@ -793,7 +991,10 @@ def simulate_scans(truth, n_steps, effects, rng_scan):
     beams = myaw + alpha
     ang = th[:, None] + beams[None, :]
 
-    r_true, cos_inc = cast_rays(ox, oy, ang, true_walls(effects), incidence=True)
+    world = np.concatenate([true_walls(effects), object_walls(map_errors)])
+    r_true, cos_inc = cast_rays(ox, oy, ang, world, incidence=True)
+    if seen is not None and map_errors:
+        seen.extend(map_error_visibility(ox, oy, ang, r_true, map_errors))
     r = r_true
     c_inc = effects.get("ooc_incidence_bias", [0.0])[0]
     if c_inc:
@@ -812,10 +1013,34 @@ def simulate_scans(truth, n_steps, effects, rng_scan):
     return k_scan, r
 
 
-def min_clearance(truth):
-    """Smallest distance of the true path to any (nominal) wall, m."""
+def map_error_visibility(ox, oy, ang, r_true, map_errors):
+    """[(kind, values, beams, scans)] of each map error (see simulate_scans)."""
+    out = []
+    ok = np.isfinite(r_true) & (r_true <= RANGE_MAX)
+
+    def count(mask):
+        mask = mask & ok
+        return int(mask.sum()), int(mask.any(axis=1).sum())
+
+    for o in map_errors.get("object", []):
+        r_o = cast_rays(ox, oy, ang, np.array(box_walls(*o), dtype=float))
+        out.append(("object", o, *count(np.isfinite(r_o) & (r_o <= r_true + 1e-9))))
+    walls = np.array(map_walls(map_errors), dtype=float)
+    r_map = cast_rays(ox, oy, ang, walls)
+    n_real = len(WALLS)
+    for j, p in enumerate(map_errors.get("phantom", [])):
+        r_wo = cast_rays(ox, oy, ang, np.delete(walls, n_real + j, axis=0))
+        out.append(("phantom", p, *count(r_map < r_wo - 1e-9)))
+    for i, d in map_errors.get("shift", []):
+        r_wo = cast_rays(ox, oy, ang, np.delete(walls, i, axis=0))
+        out.append(("shift", [i, d], *count(r_map < r_wo - 1e-9)))
+    return out
+
+
+def min_clearance(truth, map_errors=None):
+    """Smallest distance of the true path to any (nominal) wall or object, m."""
     p = truth[:, :2]
-    w = np.array(WALLS)
+    w = np.concatenate([np.array(WALLS, dtype=float), object_walls(map_errors)])
     a, e = w[:, :2], w[:, 2:] - w[:, :2]
     rel = p[:, None, :] - a[None, :, :]
     u = np.clip((rel * e).sum(-1) / (e * e).sum(-1), 0.0, 1.0)
@@ -828,7 +1053,7 @@ def min_clearance(truth):
 # ---------------------------------------------------------------------------
 
 def write_log(fname, drive, seed, minutes, effects, enc, truth, k_scan, ranges,
-              noisy_rates):
+              noisy_rates, map_errors=None):
     out = ["odolog 1",
            f"meta source odosim.py seed={seed}",
            f"meta drive_minutes {minutes!r}",
@@ -848,7 +1073,12 @@ def write_log(fname, drive, seed, minutes, effects, enc, truth, k_scan, ranges,
         out.append(f"meta truth_effect {name} " + " ".join(repr(float(v)) for v in vals))
     out.append(f"laser {N_BEAMS} {ANGLE_MIN!r} {ANGLE_INC!r} {RANGE_MAX!r} "
                f"{RANGE_SIGMA!r} {MOUNT[0]!r} {MOUNT[1]!r} {MOUNT[2]!r}")
-    out += ["wall " + " ".join(repr(float(c)) for c in w) for w in WALLS]
+    for kind, items in (map_errors or {}).items():
+        for vals in items:
+            out.append(f"meta truth_map_error {kind} "
+                       + " ".join(repr(v) if isinstance(v, int) else repr(float(v))
+                                  for v in vals))
+    out += ["wall " + " ".join(repr(float(c)) for c in w) for w in map_walls(map_errors)]
     x0, y0, th0 = truth[0]
     out.append(f"init {x0!r} {y0!r} {th0!r} 0.01 0.01 0.01")
 
@@ -888,6 +1118,14 @@ def main(argv=None):
                          "model's noise-free increment")
     ap.add_argument("--list-effects", action="store_true",
                     help="list the effects and their parameters, then exit")
+    ap.add_argument("--map-error", action="append", default=[], metavar="KIND=V1,...",
+                    help="make the map differ from the world (repeatable): object=x,y,w,h "
+                         "(in the world, not in the map), phantom=x1,y1,x2,y2 (in the map, "
+                         "not in the world), shift=i,d (map wall i written d m along its "
+                         "left normal); see --list-map-errors")
+    ap.add_argument("--list-map-errors", action="store_true",
+                    help="list the map-error kinds and the suggested test placements, "
+                         "then exit")
     args = ap.parse_args(argv)
 
     if args.list_effects:
@@ -900,6 +1138,13 @@ def main(argv=None):
                 extra.append("test size " + ",".join(repr(v) for v in TEST_SIZES[name]))
             extra = f" [{'; '.join(extra)}]" if extra else ""
             print(f"{name:22s} {kind:12s} {count:6s} {desc}{extra}")
+        return 0
+    if args.list_map_errors:
+        for kind, (n, desc) in MAP_ERRORS.items():
+            print(f"{kind:22s} {'map':12s} {n!s:6s} {desc}")
+        for name, (kind, vals, note) in MAP_ERROR_CASES.items():
+            spec = f"{kind}=" + ",".join(f"{v:g}" for v in vals)
+            print(f"  case {name:15s} --map-error {spec:24s} {note}")
         return 0
     if not args.out:
         ap.error("--out FILE is required")
@@ -915,14 +1160,19 @@ def main(argv=None):
     t0 = time.perf_counter()
     n_steps = int(round(args.minutes * 60.0 / DT))
     path = Path()
+    map_errors = parse_map_errors(args.map_error, ap, path)
     rng_sched, rng_noise, rng_turn, rng_scan = (
         np.random.default_rng([args.seed, i]) for i in range(4))
     enc, truth = simulate_motion(args.drive, n_steps, effects, path,
                                  rng_sched, rng_noise, rng_turn, args.noisy_rates)
-    k_scan, ranges = simulate_scans(truth, n_steps, effects, rng_scan)
+    seen = []
+    k_scan, ranges = simulate_scans(truth, n_steps, effects, rng_scan, map_errors, seen)
     write_log(args.out, args.drive, args.seed, args.minutes, effects, enc, truth,
-              k_scan, ranges, args.noisy_rates)
-    clear = min_clearance(truth)
+              k_scan, ranges, args.noisy_rates, map_errors)
+    for kind, vals, beams, scans in seen:
+        print(f"odosim: map error {kind}=" + ",".join(f"{v:g}" for v in vals)
+              + f": met by {beams} beams in {scans} scans", file=sys.stderr)
+    clear = min_clearance(truth, map_errors)
     if clear <= 1.0:
         print(f"odosim: warning: the robot came within {clear:.2f} m of a wall",
               file=sys.stderr)
