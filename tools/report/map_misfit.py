@@ -49,7 +49,8 @@ def ranking_line(d, m, regs):
     s = (f"The effect ranking above left out the {n:,} beams that end in the region(s): they say where the map "
          f"is wrong, not how the robot moves. ")
     if not with_:
-        return s + "With them, the ranking names no effect either."
+        return s + ("With them, the ranking names no effect either." if not named else
+                    f"With them, it names no effect; without them it names {', '.join(named)}.")
     same = [r["effect"] for r in with_] == named
     return s + f"With them, it names {names}" + (" — the same as without them." if same else
                                                  (f"; without them it names {', '.join(named)}." if named else
