@@ -7,7 +7,8 @@
 Files written (the contract that tools/report/make_report.py reads):
   diagnose.json, scans.csv, beams.csv, trajectory.csv,
   heldout_before.csv and heldout_after.csv (unless --no-heldout),
-  discovery_motion.csv and discovery_beam.csv (unless --no-discovery; fixture_discovery.py).
+  discovery_motion.csv and discovery_beam.csv (unless --no-discovery; fixture_discovery.py),
+  map_grid.csv and diagnose.json's map_misfit (unless --no-discovery; fixture_map.py).
 
 The drive is a figure-eight with one reversal through a 10 m x 8 m room with a few inner
 walls. Two effects are planted so that the plots have something to show: wall 5 sits 4 cm
@@ -25,6 +26,7 @@ import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from fixture_discovery import add_discovery, add_tests_extras  # noqa: E402
+from fixture_map import add_map_misfit  # noqa: E402
 
 EFFECTS = [
     ("turn_slip", 1, "Tyres slide sideways under centripetal acceleration v*w."),
@@ -163,7 +165,7 @@ def main():
     ap.add_argument("--no-alarms", action="store_true")
     ap.add_argument("--no-discovery", action="store_true",
                     help="a diagnose.json of an older odoerr: no unexplained / change_points / auto, no "
-                         "discovery CSVs, no nested tests")
+                         "discovery CSVs, no nested tests, no map_misfit")
     a = ap.parse_args()
     rng = np.random.default_rng(a.seed)
     os.makedirs(a.outdir, exist_ok=True)
@@ -424,6 +426,7 @@ def main():
     if not a.no_discovery:
         add_tests_extras(tests, rng, 36)
         add_discovery(doc, a.outdir, rng, float(t[si][-1]), float(dist[si][-1]))
+        add_map_misfit(doc, a.outdir, WALLS, b_hx, b_hy, norm_innov, b_scan, ex[si], ey[si], rng)
     with open(os.path.join(a.outdir, "diagnose.json"), "w") as f:
         json.dump(doc, f, indent=1)
     print(f"make_fixture: {a.outdir}: {ns} scans, {len(b_t)} beams, drive {a.drive}, "

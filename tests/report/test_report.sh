@@ -10,7 +10,10 @@
 #  (f) the optional parts may be absent: no truth, heldout null, no alarms, sync drive;
 #  (g) discovery, change points and --with auto: their sections, the partial-residual plots and
 #      the change point on the timeline are there (and render), the tests table holds no JSON;
-#      without the keys (an older odoerr) the sections say "not run"; with nothing found, so.
+#      without the keys (an older odoerr) the sections say "not run"; with nothing found, so;
+#  (h) where the map is wrong: the map with its regions renders, the region's table and the ranking
+#      line are there; no region, no map_grid.csv, an older diagnose.json: said in words; a bad
+#      region or map_grid.csv: a message naming the file.
 #
 # Exit 0 all passed; 1 something failed; 77 Chromium is missing (the steps that need no browser
 # still ran and passed). Closes with the line "report: N passed, N failed".
@@ -65,8 +68,12 @@ fi
 # (c) renders in Chromium
 have_browser=1
 if [ -s "$page" ]; then
-  out=$(REQUIRE_IDS="tests ranking unexplained changes auto heldout" MIN_IMGS=11 \
+  out=$(REQUIRE_IDS="tests ranking unexplained changes auto heldout map-misfit" MIN_IMGS=12 \
         MIN_ALT="partial residual against:2" bash "$check" "$page" 2>&1); rc=$?
+  if [ "$rc" -eq 0 ]; then   # the map's figure decodes, found by its alt text
+    out2=$(REQUIRE_IDS="map-misfit" MIN_ALT="map with the residual grid and the regions:1" \
+           bash "$check" "$page" 2>&1) || { rc=1; out="$out2"; }
+  fi
   if [ "$rc" -eq 77 ]; then have_browser=0; skipped=1; echo "skip: $out"
   elif [ "$rc" -eq 0 ]; then ok "check_render on the report: $(grep RENDER_OK <<<"$out")"
   else bad "check_render on the report (exit $rc): $out"; fi
@@ -220,6 +227,48 @@ mkdir -p "$tmp/baddisc" && cp "$tmp/full/"{scans,beams,trajectory}.csv "$tmp/ful
 cp "$tmp/full/discovery_beam.csv" "$tmp/baddisc/"
 sed '1s/,partial_[^,]*$//' "$tmp/full/discovery_motion.csv" | cut -d, -f1-5 > "$tmp/baddisc/discovery_motion.csv"
 expect_error "discovery_motion.csv without its partial column" "discovery_motion\.csv: header lacks column\(s\) partial_world/world_x/abs_ds" "$tmp/baddisc"
+
+# (h) where the map is wrong
+if [ -s "$page" ]; then
+  expect_in "map section in the full report" "$page" \
+    '<h2 id="map-misfit">Where the map is wrong</h2>' "href='#map-misfit'" \
+    'alt="map with the residual grid and the regions where the map is wrong"' \
+    "1 region(s) where the laser disagrees with the map" "R1 <b>short</b> at (10.12, 4.99) m (something the map lacks)" \
+    "(9.65, 4.50) → (9.65, 5.50) m" "1.00 m long" "0.25 × 1.00 m" "−4.18" "over the 228 cells tested" \
+    "The effect ranking above left out the 4,123 beams" "laser_mount_xy (p &lt; 0.0001)" \
+    "without them it names wall_offset, turn_slip, range_bias."
+fi
+if [ -s "$tmp/old/report.html" ]; then
+  expect_in "an older diagnose.json: the map section says not run" "$tmp/old/report.html" \
+    '<h2 id="map-misfit">Where the map is wrong</h2>' 'Not run: diagnose.json has no "map_misfit"'
+fi
+mkdir -p "$tmp/noregion" && cp "$tmp/full/"*.csv "$tmp/noregion/"
+"$PY" - "$tmp/full/diagnose.json" "$tmp/noregion/diagnose.json" <<'EOF3'
+import json, sys
+d = json.load(open(sys.argv[1]))
+d["map_misfit"]["regions"] = []
+d["map_misfit"]["region_beams"] = "none"
+d["map_misfit"]["ranking_with_region_beams"] = None
+json.dump(d, open(sys.argv[2], "w"))
+EOF3
+sed -i 's/,0$/,-1/' "$tmp/noregion/map_grid.csv"
+if out=$("$PY" "$report" "$tmp/noregion" 2>&1); then
+  expect_in "no region: said in words ($out)" "$tmp/noregion/report.html" \
+    'No region: the ranges agree with the map everywhere it was seen.' '228 cells were tested' '4.11' \
+    'alt="map with the residual grid'
+else bad "no region: $out"; fi
+mkdir -p "$tmp/nogrid" && cp "$tmp/full/"{scans,beams,trajectory}.csv "$tmp/full/diagnose.json" "$tmp/nogrid/"
+if out=$("$PY" "$report" "$tmp/nogrid" 2>&1); then
+  expect_in "map_grid.csv missing: regions only, said so ($out)" "$tmp/nogrid/report.html" \
+    'map_grid.csv is not in the directory' 'R1 <b>short</b>' 'alt="map with the residual grid'
+else bad "map_grid.csv missing: $out"; fi
+mkdir -p "$tmp/badmap" && cp "$tmp/full/"*.csv "$tmp/badmap/"
+"$PY" -c 'import json,sys; d=json.load(open(sys.argv[1])); d["map_misfit"]["regions"][0]["candidate_segment"]=[1,2]; json.dump(d, open(sys.argv[2],"w"))' \
+  "$tmp/full/diagnose.json" "$tmp/badmap/diagnose.json"
+expect_error "a candidate segment of two numbers" "diagnose\.json: 'map_misfit\.regions\[0\]\.candidate_segment' should be null or \[x1, y1, x2, y2\]" "$tmp/badmap"
+mkdir -p "$tmp/badgrid" && cp "$tmp/full/"{scans,beams,trajectory}.csv "$tmp/full/diagnose.json" "$tmp/badgrid/"
+sed '1s/mean_norm/mean/' "$tmp/full/map_grid.csv" > "$tmp/badgrid/map_grid.csv"
+expect_error "map_grid.csv without mean_norm" "map_grid\.csv: header lacks column\(s\) mean_norm" "$tmp/badgrid"
 
 echo "report: $pass passed, $fail failed"
 [ "$fail" -ne 0 ] && exit 1

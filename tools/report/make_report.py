@@ -5,7 +5,8 @@ usage: make_report.py DIR [--out FILE] [--max-points N]
 
 Reads DIR/diagnose.json, scans.csv, beams.csv, trajectory.csv and, when the held-out check
 ran, heldout_before.csv / heldout_after.csv, and discovery_motion.csv / discovery_beam.csv when
-present. Writes one HTML file with inline CSS and every
+present, and map_grid.csv when diagnose.json's map_misfit names it. Writes one HTML file
+with inline CSS and every
 plot embedded as a base64 PNG: no JavaScript, no external links, readable offline.
 
 Exit status: 0 written; 1 an input file is missing or malformed (one line on stderr that
@@ -13,7 +14,7 @@ names the file, and the line or key when there is one); 2 bad command line.
 Needs numpy, matplotlib (Agg backend) and Jinja2. The code is split by responsibility:
 report_io.py (inputs), fmt.py (numbers, tables), plots.py / plots_discovery.py (figures),
 sections.py (tables of tests, ranking, held-out...), discovery.py + templates/ (discovery,
-change points, --with auto).
+change points, --with auto), map_misfit.py + plots_map.py (where the map is wrong).
 """
 import argparse
 import os
@@ -27,7 +28,8 @@ from fmt import E, fnum, figure  # noqa: E402
 from plots import (BIN_ORDER, setup_matplotlib, png_uri, fig_trajectory,  # noqa: E402
                    fig_truth_error, fig_nis, fig_residual_map, fig_beams, fig_bins, fig_ranking,
                    fig_heldout)
-from report_io import InputError, is_num, load_inputs  # noqa: E402
+from report_io import InputError, is_num, load_inputs, read_map_grid  # noqa: E402
+from map_misfit import map_misfit_section  # noqa: E402
 from discovery import discovery_sections  # noqa: E402
 from sections import (tests_section, ranking_section, heldout_table, excitation_section,  # noqa: E402
                       bins_table)
@@ -40,6 +42,7 @@ with open(os.path.join(os.path.dirname(os.path.abspath(__file__)), "report.css")
 def build(args):
     t_start = time.monotonic()
     d, scans, beams, traj, held, disc = load_inputs(args.dir)
+    grid = read_map_grid(args.dir, d)
     plt = setup_matplotlib()
     rng = np.random.default_rng(0)
     walls = (d.get("map") or {}).get("walls") or []
@@ -84,7 +87,7 @@ def build(args):
             f"t = {fnum(c['t'], 4)} s: {c.get('what') or 'the drive parameters change'}" for c in cps))
             + " <a href='#changes'>(details)</a></p>")
     s.append("<nav><a href='#tests'>Tests</a><a href='#trajectory'>Trajectory</a><a href='#nis'>NIS</a>"
-             "<a href='#residuals'>Residual map</a><a href='#beams'>Per beam</a><a href='#bins'>Bins</a>"
+             "<a href='#residuals'>Residual map</a><a href='#map-misfit'>Map errors</a><a href='#beams'>Per beam</a><a href='#bins'>Bins</a>"
              "<a href='#ranking'>Effects</a><a href='#unexplained'>Unexplained</a><a href='#changes'>Change points</a>"
              "<a href='#auto'>Auto</a><a href='#heldout'>Held-out</a><a href='#excitation'>Excitation</a></nav>")
 
@@ -147,6 +150,10 @@ def build(args):
         n_imgs += 1
     else:
         s.append("<p class='note'>beams.csv has no used beams: nothing to plot.</p>")
+
+    mm_html, n_mm = map_misfit_section(d, grid, traj, plt)
+    s.append(mm_html)
+    n_imgs += n_mm
 
     s.append("<h2 id='beams'>Residuals per beam</h2>")
     if len(beams["t"]) and np.isfinite(beams["beam"]).any():

@@ -170,6 +170,7 @@ def check_diagnose(d, path):
                                                for w in walls), path,
                "'map.walls' should be a list of [x1, y1, x2, y2]")
     check_discovery(d, path)
+    check_map_misfit(d, path)
 
 
 def _features(lst, where, path):
@@ -217,6 +218,57 @@ def check_discovery(d, path):
         expect(ex is None or isinstance(ex, dict), path, f"'ranking[{i}].explains' should be an object")
         for k in ("motion", "beam", "total"):
             num(ex, k, f"ranking[{i}].explains", path)
+
+
+def _is_xy(v, n):
+    return isinstance(v, list) and len(v) == n and all(is_num(x) for x in v)
+
+
+def check_map_misfit(d, path):
+    """The key 'map_misfit' (where the map is wrong); absent (an older odoerr) or null is fine."""
+    m = d.get("map_misfit")
+    if m is None:
+        return
+    expect(isinstance(m, dict), path, "'map_misfit' should be null or an object")
+    for k in ("cell_m", "cells_tested", "t_critical", "family_alpha"):
+        num(m, k, "map_misfit", path)
+    g = m.get("grid")
+    expect(g is None or isinstance(g, dict), path, "'map_misfit.grid' should be an object")
+    for k in ("x0", "y0", "nx", "ny"):
+        num(g, k, "map_misfit.grid", path)
+    regs = m.get("regions")
+    expect(regs is None or isinstance(regs, list), path, "'map_misfit.regions' should be a list")
+    for i, r in enumerate(regs or []):
+        w = f"map_misfit.regions[{i}]"
+        expect(isinstance(r, dict), path, f"'{w}' should be an object")
+        for k in ("x", "y", "beams", "mean_norm", "scans"):
+            num(r, k, w, path)
+        expect(r.get("sign") in (None, "short", "long"), path, f"'{w}.sign' should be \"short\" or \"long\"")
+        expect(r.get("extent_m") is None or _is_xy(r["extent_m"], 2), path, f"'{w}.extent_m' should be [w, h]")
+        sf = r.get("seen_from")
+        expect(sf is None or (isinstance(sf, list) and all(_is_xy(p, 2) for p in sf)), path,
+               f"'{w}.seen_from' should be a list of [x, y]")
+        expect(r.get("candidate_segment") is None or _is_xy(r["candidate_segment"], 4), path,
+               f"'{w}.candidate_segment' should be null or [x1, y1, x2, y2]")
+    for k in ("grid_csv", "region_beams"):
+        expect(m.get(k) is None or isinstance(m[k], str), path, f"'map_misfit.{k}' should be a string")
+    rw = m.get("ranking_with_region_beams")
+    expect(rw is None or (isinstance(rw, list) and all(isinstance(r, dict) and isinstance(r.get("effect"), str)
+                                                       for r in rw)),
+           path, "'map_misfit.ranking_with_region_beams' should be null or a list of {effect, significant, p_value}")
+
+
+def read_map_grid(outdir, d):
+    """map_grid.csv (x,y,count,mean_norm,rms_norm,t,region) when diagnose.json names it and it
+    is there; None otherwise (the section says so)."""
+    m = d.get("map_misfit")
+    name = m.get("grid_csv") if isinstance(m, dict) else None
+    if not name:
+        return None
+    path = os.path.join(outdir, os.path.basename(name))
+    if not os.path.isfile(path):
+        return None
+    return read_csv(path, ["x", "y", "count", "mean_norm", "rms_norm", "t", "region"])
 
 
 def read_discovery_csv(path):
