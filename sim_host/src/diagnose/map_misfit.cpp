@@ -18,6 +18,8 @@ constexpr int kMinScans = 10;        // a cell is tested when this many scans sa
 constexpr double kFamilyAlpha = 0.01;  // false-alarm rate over the whole map
 constexpr double kCornerM = 0.05;    // a hit this close to a wall's end may jump walls: left out
 constexpr double kMarginM = 1.0;     // the grid covers the walls' box and this much around it
+constexpr double kMergeM = 0.3;      // short regions whose beams end this close are one thing
+constexpr double kShortZ = 3.0;      // a beam this many sigmas short ended on something the map lacks
 
 /// z with P(|N(0,1)| > z) = p.
 double twoSidedQuantile(double p) {
@@ -162,7 +164,6 @@ MapMisfit mapMisfit(const En& en, const typename En::RunOut& run, double cell_m)
       sx += h.hx;
       sy += h.hy;
       sz += h.z;
-      mm += Eigen::Vector2d(h.mx, h.my);
       posts.push_back(h.post);
       if (h.key >= 0 && static_cast<std::size_t>(h.key) < m.in_region.size()) m.in_region[static_cast<std::size_t>(h.key)] = 1;
     }
@@ -170,9 +171,47 @@ MapMisfit mapMisfit(const En& en, const typename En::RunOut& run, double cell_m)
     r.x = sx / double(r.beams);
     r.y = sy / double(r.beams);
     r.mean_norm = sz / double(r.beams);
-    mm /= double(r.beams);
+    // The beams whose real end points describe the thing. Something the map lacks stands
+    // where the beams really ended, not where the map said they would (an object in the
+    // open casts its evidence on the wall behind it): the beams that clearly ended early
+    // (3 sigmas short) mark it; the cells' other beams (the wall seen past it from other
+    // poses) do not. For a long region, all of them.
+    double cut = 1e300;
+    if (r.short_) {
+      long n_short = 0;
+      for (const Hit& h : hits)
+        if (label[static_cast<std::size_t>(h.cell)] == static_cast<int>(i) && h.z <= -kShortZ) ++n_short;
+      cut = n_short >= 10 ? -kShortZ : 0.0;
+    }
+    const bool clear = !r.short_ || cut < 0;  // its marks are clear enough to fit a wall to
+    auto marks = [&](const Hit& h) { return label[static_cast<std::size_t>(h.cell)] == static_cast<int>(i) && h.z <= cut; };
+    long nm = 0;
+    mm.setZero();
     for (const Hit& h : hits)
-      if (label[static_cast<std::size_t>(h.cell)] == static_cast<int>(i)) {
+      if (marks(h)) {
+        mm += Eigen::Vector2d(h.mx, h.my);
+        ++nm;
+      }
+    if (nm == 0) continue;
+    mm /= double(nm);
+    if (r.short_) {
+      std::vector<double> xs, ys;
+      for (const Hit& h : hits)
+        if (marks(h)) {
+          xs.push_back(h.mx);
+          ys.push_back(h.my);
+        }
+      auto pct = [](std::vector<double> v, double q) {
+        std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(q * double(v.size() - 1)), v.end());
+        return v[static_cast<std::size_t>(q * double(v.size() - 1))];
+      };
+      r.x = pct(xs, 0.5);
+      r.y = pct(ys, 0.5);
+      r.w = pct(xs, 0.9) - pct(xs, 0.1);
+      r.h = pct(ys, 0.9) - pct(ys, 0.1);
+    }
+    for (const Hit& h : hits)
+      if (marks(h)) {
         const Eigen::Vector2d d(h.mx - mm[0], h.my - mm[1]);
         cov += d * d.transpose();
       }
@@ -185,13 +224,13 @@ MapMisfit mapMisfit(const En& en, const typename En::RunOut& run, double cell_m)
     }
     // A candidate wall: where the beams really ended lies along a line, seen from many
     // poses (the measured points, not the map's: they are where the thing is).
-    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> es(cov / double(r.beams));
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> es(cov / double(nm));
     const double l0 = es.eigenvalues()[0], l1 = es.eigenvalues()[1];
-    if (r.poses >= 20 && l1 > 0 && l0 < l1 / 25) {
+    if (clear && r.poses >= 20 && l1 > 0 && l0 < l1 / 25) {
       const Eigen::Vector2d dir = es.eigenvectors().col(1);
       double pmin = 1e300, pmax = -1e300;
       for (const Hit& h : hits)
-        if (label[static_cast<std::size_t>(h.cell)] == static_cast<int>(i)) {
+        if (marks(h)) {
           const double p = dir.dot(Eigen::Vector2d(h.mx, h.my) - mm);
           pmin = std::min(pmin, p);
           pmax = std::max(pmax, p);
@@ -201,6 +240,34 @@ MapMisfit mapMisfit(const En& en, const typename En::RunOut& run, double cell_m)
       r.seg[1] = mm[1] + pmin * dir[1];
       r.seg[2] = mm[0] + pmax * dir[0];
       r.seg[3] = mm[1] + pmax * dir[1];
+    }
+  }
+  // Short regions whose beams end in one place are one thing seen against several walls:
+  // merged (their cells and beams together, the figures beam-weighted).
+  for (std::size_t i = 0; i < m.regions.size(); ++i) {
+    for (std::size_t j = i + 1; j < m.regions.size();) {
+      MapRegion &a = m.regions[i], &b = m.regions[j];
+      if (!a.short_ || !b.short_ || a.beams == 0 || b.beams == 0 ||
+          std::hypot(a.x - b.x, a.y - b.y) > kMergeM + 0.5 * std::max({a.w, a.h, b.w, b.h})) {
+        ++j;
+        continue;
+      }
+      const double wa = double(a.beams), wb = double(b.beams);
+      const double lo_x = std::min(a.x - a.w / 2, b.x - b.w / 2), hi_x = std::max(a.x + a.w / 2, b.x + b.w / 2);
+      const double lo_y = std::min(a.y - a.h / 2, b.y - b.h / 2), hi_y = std::max(a.y + a.h / 2, b.y + b.h / 2);
+      a.x = (a.x * wa + b.x * wb) / (wa + wb);
+      a.y = (a.y * wa + b.y * wb) / (wa + wb);
+      a.w = hi_x - lo_x;
+      a.h = hi_y - lo_y;
+      a.mean_norm = (a.mean_norm * wa + b.mean_norm * wb) / (wa + wb);
+      a.beams += b.beams;
+      a.poses = std::max(a.poses, b.poses);
+      a.cells.insert(a.cells.end(), b.cells.begin(), b.cells.end());
+      if (!a.has_segment && b.has_segment) {
+        a.has_segment = true;
+        std::copy(b.seg, b.seg + 4, a.seg);
+      }
+      m.regions.erase(m.regions.begin() + static_cast<std::ptrdiff_t>(j));
     }
   }
   // largest evidence first
