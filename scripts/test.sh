@@ -2,7 +2,7 @@
 # Builds everything and runs all tests: the host suite (unit, Monte Carlo, CLI, the paper
 # acceptance run), then the Cortex-M4F images under QEMU against the host's references.
 # Usage: scripts/test.sh [--quick]   (--quick leaves out the statistical diagnose tests
-#                                      over many seeds, label diagnose-stats, about 12 minutes;
+#                                      over many seeds, label diagnose-stats, about 14 minutes;
 #                                      CI and the plain command run them)
 set -euo pipefail
 mode="${1:-}"

@@ -44,11 +44,11 @@ import argparse
 import json
 import math
 import os
-import subprocess
 import sys
-import time
 
 HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, HERE)
+from diag_json import Missing, diagnose, feature_text, fmt, named_rows, need, run, seed_list  # noqa: E402
 DEFAULT_PYSIM = os.path.normpath(os.path.join(HERE, "..", "..", "tools", "pysim", "odosim.py"))
 
 HEADING_FEATURES = {"cos_heading_ds", "sin_heading_ds"}
@@ -95,70 +95,12 @@ AUTO_Z = -2.0
 CLEAN_FALSE_ALARM = 0.05
 
 
-class Missing(Exception):
-    """A key the contract promises is not in the JSON."""
-
-
-def need(obj, *keys):
-    """obj[k1][k2]...; raises Missing('k1.k2[0]...') naming the first key not there."""
-    cur, path = obj, ""
-    for k in keys:
-        path += "[%d]" % k if isinstance(k, int) else ("." if path else "") + str(k)
-        try:
-            cur = cur[k]
-        except (KeyError, IndexError, TypeError):
-            raise Missing(path)
-    return cur
-
-
-def fmt(v, spec=".3g"):
-    return "None" if v is None else format(v, spec) if isinstance(v, (int, float)) else str(v)
-
-
-def run(cmd):
-    """(ok, seconds, stderr tail)."""
-    t0 = time.perf_counter()
-    try:
-        r = subprocess.run(cmd, capture_output=True, text=True)
-    except OSError as e:
-        return False, 0.0, str(e)
-    tail = " | ".join(r.stderr.strip().splitlines()[-2:])
-    return r.returncode == 0, time.perf_counter() - t0, tail if r.returncode else ""
-
-
-def diagnose(args, log, out, extra=()):
-    """(json or None, seconds, error text)."""
-    ok, secs, err = run([args.odoerr, "diagnose", log, "--json", out, *extra])
-    if not ok:
-        return None, secs, "diagnose %s failed: %s" % (" ".join(extra) or "", err)
-    try:
-        with open(out) as f:
-            return json.load(f), secs, ""
-    except (OSError, ValueError) as e:
-        return None, secs, "diagnose wrote no readable JSON (%s)" % e
-
 
 def generate(args, log, seed, spec=None):
     cmd = [args.python, args.pysim, "--drive", "diff", "--seed", str(seed), "--out", log]
     if spec:
         cmd += ["--effect", spec]
     return run(cmd)
-
-
-def named_rows(j):
-    """[(effect, kind)] of the significant ranking rows."""
-    out = []
-    for i, row in enumerate(need(j, "ranking")):
-        if need(j, "ranking", i, "significant"):
-            out.append((need(j, "ranking", i, "effect"), need(j, "ranking", i, "kind")))
-    return out
-
-
-def feature_text(f):
-    if not isinstance(f, dict):
-        return repr(f)
-    return "%s/%s %s %s+-%s" % (f.get("frame"), f.get("component"), f.get("name"),
-                                fmt(f.get("coef")), fmt(f.get("sigma")))
 
 
 def matches(f, expect):
@@ -346,17 +288,6 @@ def check_clean(args, seeds):
         len(seeds), "ok" if ok else "FAIL", len(flagged), flagged or "-", allowed,
         "; broken seeds %s" % broken if broken else ""))
     return ok, lines
-
-
-def seed_list(text):
-    out = []
-    for part in text.split(","):
-        if "-" in part.strip()[1:]:
-            a, b = part.split("-", 1)
-            out += list(range(int(a), int(b) + 1))
-        elif part.strip():
-            out.append(int(part))
-    return out
 
 
 def main():

@@ -45,11 +45,11 @@ import argparse
 import json
 import math
 import os
-import subprocess
 import sys
-import time
 
 HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, HERE)
+from diag_json import Missing, diagnose, feature_text, fmt, named_rows, need, run, seed_list  # noqa: E402
 DEFAULT_PYSIM = os.path.normpath(os.path.join(HERE, "..", "..", "tools", "pysim", "odosim.py"))
 
 MATCH_M = 0.3               # a region's centre within this of the error
@@ -68,52 +68,6 @@ CASES = {
     "shift_box": ("shift", [4, 0.10], "bottom wall of the 1.2 m box drawn 0.10 m into the box"),
 }
 
-
-class Missing(Exception):
-    """A key the contract promises is not in the JSON."""
-
-
-def need(obj, *keys):
-    """obj[k1][k2]...; raises Missing('k1.k2[0]...') naming the first key not there."""
-    cur, path = obj, ""
-    for k in keys:
-        path += "[%d]" % k if isinstance(k, int) else ("." if path else "") + str(k)
-        try:
-            cur = cur[k]
-        except (KeyError, IndexError, TypeError):
-            raise Missing(path)
-    return cur
-
-
-def fmt(v, spec=".3g"):
-    if v is None:
-        return "None"
-    if isinstance(v, bool):
-        return str(v)
-    return format(v, spec) if isinstance(v, (int, float)) else str(v)
-
-
-def run(cmd):
-    """(ok, seconds, stderr tail)."""
-    t0 = time.perf_counter()
-    try:
-        r = subprocess.run(cmd, capture_output=True, text=True)
-    except OSError as e:
-        return False, 0.0, str(e)
-    tail = " | ".join(r.stderr.strip().splitlines()[-2:])
-    return r.returncode == 0, time.perf_counter() - t0, tail if r.returncode else ""
-
-
-def diagnose(args, log, out):
-    """(json or None, seconds, error text)."""
-    ok, secs, err = run([args.odoerr, "diagnose", log, "--json", out])
-    if not ok:
-        return None, secs, "diagnose failed: %s" % err
-    try:
-        with open(out) as f:
-            return json.load(f), secs, ""
-    except (OSError, ValueError) as e:
-        return None, secs, "diagnose wrote no readable JSON (%s)" % e
 
 
 def spec_text(kind, values):
@@ -185,22 +139,6 @@ def target(kind, values, log):
 # ---------------------------------------------------------------------------
 # What today's diagnose says
 # ---------------------------------------------------------------------------
-
-def feature_text(f):
-    if not isinstance(f, dict):
-        return repr(f)
-    return "%s/%s %s %s+-%s" % (f.get("frame"), f.get("component"), f.get("name"),
-                                fmt(f.get("coef")), fmt(f.get("sigma")))
-
-
-def named_rows(j):
-    """[(effect, kind)] of the significant ranking rows."""
-    out = []
-    for i, row in enumerate(need(j, "ranking")):
-        if need(j, "ranking", i, "significant") is True:
-            out.append((need(j, "ranking", i, "effect"), need(j, "ranking", i, "kind")))
-    return out
-
 
 def todays_words(j):
     """One text with the verdict, named effects, top of the ranking, unexplained features;
@@ -300,6 +238,22 @@ def check_case(args, name, seed):
         info.append("%d region(s)" % len(regions))
     except Missing as e:
         fails.append("diagnose JSON has no '%s' (map misfit not in this binary?)" % e)
+    # 1b. along the wall concerned (phantom, shift): its bins lean the expected way
+    if kind in ("phantom", "shift"):
+        try:
+            walls_rec, _ = read_walls_truth(log)
+            wi = int(values[0]) if kind == "shift" else next(
+                k for k, w in enumerate(walls_rec)
+                if all(abs(a - float(b)) < 1e-9 for a, b in zip(w, values)))
+            bins = need(j, "map_misfit", "walls", wi, "bins")
+            n = sum(b.get("count", 0) for b in bins if b.get("mean_norm") is not None)
+            mean = (sum(b["count"] * b["mean_norm"] for b in bins if b.get("mean_norm") is not None) / n
+                    if n else None)
+            info.append("wall %d along its length: %s beams, mean z %s" % (wi, n, fmt(mean)))
+            if mean is None or (mean < 0) != (sign == "short"):
+                fails.append("wall %d's bins do not lean %s (mean z %s)" % (wi, sign, fmt(mean)))
+        except Missing as e:
+            fails.append("diagnose JSON has no '%s' (wall bins)" % e)
     # 2. no odometry effect named for a map error
     try:
         named = named_rows(j)
@@ -371,17 +325,6 @@ def check_clean(args, seeds):
                                 flagged or "-", allowed,
                                 "; broken seeds %s" % broken if broken else ""))
     return ok, lines, recs
-
-
-def seed_list(text):
-    out = []
-    for part in text.split(","):
-        if "-" in part.strip()[1:]:
-            a, b = part.split("-", 1)
-            out += list(range(int(a), int(b) + 1))
-        elif part.strip():
-            out.append(int(part))
-    return out
 
 
 def main():

@@ -67,6 +67,11 @@ MapMisfit mapMisfit(const En& en, const typename En::RunOut& run, double cell_m)
     double hx, hy;     // where the map says it ends
   };
   std::vector<Hit> hits;
+  m.walls.resize(log.walls.size());
+  for (std::size_t i = 0; i < log.walls.size(); ++i) {
+    const auto& w = log.walls[i];
+    m.walls[i].resize(static_cast<std::size_t>(std::max(1.0, std::ceil(std::hypot(w.x2 - w.x1, w.y2 - w.y1) / kWallBinM))));
+  }
   for (const PostBeam& b : run.post_beams) {
     const PostPose& q = run.post[static_cast<std::size_t>(b.post)];
     const Event& ev = en.events()[static_cast<std::size_t>(q.event)];
@@ -79,6 +84,13 @@ MapMisfit mapMisfit(const En& en, const typename En::RunOut& run, double cell_m)
     const int cx = static_cast<int>(std::floor((hx - m.x0) / cell_m)), cy = static_cast<int>(std::floor((hy - m.y0) / cell_m));
     if (cx < 0 || cy < 0 || cx >= m.nx || cy >= m.ny) continue;
     const double z = std::clamp(b.nu / sigma, -kClipZ, kClipZ);
+    {  // along the wall: the hit's distance from the wall's first end
+      auto& bins = m.walls[static_cast<std::size_t>(bh.wall)];
+      const double along = std::hypot(hx - w.x1, hy - w.y1);
+      const std::size_t k = std::min(bins.size() - 1, static_cast<std::size_t>(along / kWallBinM));
+      ++bins[k].count;
+      bins[k].sum += std::clamp(b.nu / sigma, -kClipZ, kClipZ);
+    }
     const double rm = bh.range + b.nu;
     hits.push_back({cy * m.nx + cx, b.post, static_cast<long>(ev.scan) * nbeams + b.beam, z, bh.lx + rm * bh.ux,
                     bh.ly + rm * bh.uy, hx, hy});
@@ -292,7 +304,20 @@ json mapMisfitJson(const MapMisfit& m, const std::string& grid_csv) {
                        {"seen_from", seen},
                        {"candidate_segment", r.has_segment ? json({r.seg[0], r.seg[1], r.seg[2], r.seg[3]}) : json(nullptr)}});
   }
+  json walls = json::array();
+  for (std::size_t i = 0; i < m.walls.size(); ++i) {
+    json bins = json::array();
+    for (std::size_t k = 0; k < m.walls[i].size(); ++k) {
+      const auto& b = m.walls[i][k];
+      bins.push_back({{"from_m", double(k) * kWallBinM},
+                      {"count", b.count},
+                      {"mean_norm", b.count > 0 ? json(b.sum / double(b.count)) : json(nullptr)}});
+    }
+    walls.push_back({{"wall", i}, {"bins", bins}});
+  }
   return {{"cell_m", m.cell_m},
+          {"wall_bin_m", kWallBinM},
+          {"walls", walls},
           {"grid", {{"x0", m.x0}, {"y0", m.y0}, {"nx", m.nx}, {"ny", m.ny}}},
           {"cells_tested", m.tested},
           {"t_critical", m.t_crit},

@@ -44,7 +44,17 @@ struct MapMisfit {
   std::vector<MapRegion> regions;
   /// Per beam of the run (scan * beams + beam): its predicted hit falls in a region.
   std::vector<std::uint8_t> in_region;
+  /// Per map wall, the same residuals in bins of kWallBinM along its length (from its
+  /// first end): count and mean normalised residual.
+  struct WallBin {
+    long count = 0;
+    double sum = 0;
+  };
+  std::vector<std::vector<WallBin>> walls;
 };
+
+/// Bin length along a wall (m).
+constexpr double kWallBinM = 0.5;
 
 /// Where beam `beam` of `laser` ends on `map` from the robot pose (x, y, theta), as the
 /// filter casts it (mount offset and yaw included): the laser's position (lx, ly), the
