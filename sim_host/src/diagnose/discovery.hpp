@@ -15,7 +15,7 @@
 // Each is selected sparsely (forward selection, cross-validated over the held-out blocks,
 // cluster-robust sigmas; regression.hpp). The drive parameters are nuisance columns, always
 // in; a scan of those columns over time finds an abrupt change. docs/diagnostics.md
-// ("Discovery") documents every rule.
+// ("Discovery") documents every rule. The terms in words are in terms.cpp.
 #pragma once
 
 #include <string>
