@@ -1,5 +1,7 @@
 #include "odoerr/sim/odolog.hpp"
 
+#include "odoerr/scalar.hpp"
+
 #include <algorithm>
 #include <cerrno>
 #include <cmath>
@@ -252,6 +254,18 @@ bool readOdolog(const std::string& path, Odolog* out, std::string* error) {
   std::ostringstream ss;
   ss << f.rdbuf();
   return parseOdolog(ss.str(), path, out, error);
+}
+
+DriveConstants driveConstants(const Odolog& log, bool sync) {
+  DriveConstants c;
+  if (sync) {
+    c.ticks_a = log.param("ticks_per_m", 1);
+    c.ticks_b = log.param("ticks_per_rad", 1);
+  } else {
+    c.wheelbase = log.param("wheelbase_m", 0.5);
+    c.ticks_a = c.ticks_b = log.param("ticks_per_rev", 1) / (2 * kPi<double> * log.param("wheel_radius_m", 1));
+  }
+  return c;
 }
 
 }  // namespace odoerr::sim

@@ -42,15 +42,9 @@ bool run(const Odolog& log, const ReplayOptions& opt, ReplaySummary* sum, std::s
   }
   // The estimator from the log: drive constants, map, laser, initial pose prior.
   DriveT<S> drive;
-  double ticks_a;
-  double ticks_b;
-  if constexpr (kSync) {
-    ticks_a = log.param("ticks_per_m", 1);
-    ticks_b = log.param("ticks_per_rad", 1);
-  } else {
-    drive.wheelbase = log.param("wheelbase_m", 0.5);
-    ticks_a = ticks_b = log.param("ticks_per_rev", 1) / (2 * kPi<double> * log.param("wheel_radius_m", 1));
-  }
+  const DriveConstants dc = driveConstants(log, kSync);
+  const double ticks_a = dc.ticks_a, ticks_b = dc.ticks_b;
+  if constexpr (!kSync) drive.wheelbase = S(dc.wheelbase);
   typename Est::MapT map;
   for (const auto& w : log.walls) (void)map.add({w.x1, w.y1, w.x2, w.y2});
   LaserConfig<S> lc;

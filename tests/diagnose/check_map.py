@@ -49,7 +49,7 @@ import sys
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
-from diag_json import Missing, diagnose, feature_text, fmt, named_rows, need, run, seed_list  # noqa: E402
+from diag_json import Missing, common_args, diagnose, feature_text, fmt, named_rows, need, run, seed_list  # noqa: E402
 DEFAULT_PYSIM = os.path.normpath(os.path.join(HERE, "..", "..", "tools", "pysim", "odosim.py"))
 
 MATCH_M = 0.3               # a region's centre within this of the error
@@ -329,14 +329,7 @@ def check_clean(args, seeds):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("odoerr")
-    ap.add_argument("outdir")
-    ap.add_argument("--seeds", default="21,22", help="seeds of the map-error cases")
-    ap.add_argument("--clean-seeds", default="21-30", help="seeds of the clean drives")
-    ap.add_argument("--pysim", default=DEFAULT_PYSIM)
-    ap.add_argument("--python", default=sys.executable or "/usr/bin/python3")
-    ap.add_argument("--only", default=None,
-                    help="comma-separated case names (%s, clean)" % ", ".join(CASES))
+    common_args(ap, DEFAULT_PYSIM, CASES, "map-error cases")
     ap.add_argument("--strict-named", action="store_true",
                     help="fail a case on any motion/noise effect named, even one named on "
                          "the clean drive of the same seed too")

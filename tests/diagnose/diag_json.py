@@ -79,3 +79,17 @@ def seed_list(text):
         elif part.strip():
             out.append(int(part))
     return out
+
+
+def common_args(ap, default_pysim, cases, what):
+    """The arguments every simulator-driven check takes: ODOERR OUTDIR, the seeds, the
+    simulator and its interpreter, and --only over `cases` (and clean)."""
+    import sys
+    ap.add_argument("odoerr")
+    ap.add_argument("outdir")
+    ap.add_argument("--seeds", default="21,22", help="seeds of the %s" % what)
+    ap.add_argument("--clean-seeds", default="21-30", help="seeds of the clean drives")
+    ap.add_argument("--pysim", default=default_pysim)
+    ap.add_argument("--python", default=sys.executable or "/usr/bin/python3")
+    ap.add_argument("--only", default=None,
+                    help="comma-separated case names (%s, clean)" % ", ".join(cases))

@@ -193,13 +193,10 @@ class Engine {
       *error = log_.path + ": diagnose needs measurements: 'scan' or 'pose' records";
       return false;
     }
-    if constexpr (kSync) {
-      ticks_a_ = log_.param("ticks_per_m", 1);
-      ticks_b_ = log_.param("ticks_per_rad", 1);
-    } else {
-      drive_.wheelbase = log_.param("wheelbase_m", 0.5);
-      ticks_a_ = ticks_b_ = log_.param("ticks_per_rev", 1) / (2 * kPi<double> * log_.param("wheel_radius_m", 1));
-    }
+    const DriveConstants dc = driveConstants(log_, kSync);
+    ticks_a_ = dc.ticks_a;
+    ticks_b_ = dc.ticks_b;
+    if constexpr (!kSync) drive_.wheelbase = dc.wheelbase;
     for (const auto& w : log_.walls) (void)map_.add({w.x1, w.y1, w.x2, w.y2});
     if (log_.has_laser) {
       lc_ = {log_.laser.beams, log_.laser.angle_min, log_.laser.angle_inc, log_.laser.range_max,

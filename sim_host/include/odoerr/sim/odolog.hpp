@@ -62,6 +62,14 @@ struct Odolog {
   bool hasParam(const std::string& name) const;
 };
 
+/// The drive constants a log gives: counts per unit of each encoder channel (sync: per m of
+/// translation and per rad of steering; diff: per m of wheel travel, both wheels) and the
+/// nominal wheelbase (diff; 0.5 m when absent).
+struct DriveConstants {
+  double ticks_a = 1, ticks_b = 1, wheelbase = 0.5;
+};
+DriveConstants driveConstants(const Odolog& log, bool sync);
+
 /// Encoder counts (possibly interpolated) at time t from the sorted enc records.
 struct CountsAt {
   double a, b;
