@@ -5,7 +5,6 @@
 //   odoerr replay LOG --out DIR                            the estimator over a recorded drive
 //   odoerr diagnose LOG --json OUT [--with E1,E2|auto] [--out DIR] [--suggest DIR]   model against measurements
 //   odoerr report LOG --out DIR [--with E1,E2]             diagnose + a self-contained HTML page
-#include <CLI/CLI.hpp>
 #include <cerrno>
 #include <chrono>
 #include <cstdio>
@@ -16,8 +15,8 @@
 #include <iostream>
 #include <string>
 
-#include <unistd.h>
-
+#include "cli.hpp"
+#include "commands.hpp"
 #include "odoerr/fw/hal_tape.hpp"
 #include "odoerr/fw/tape.hpp"
 #include "odoerr/sim/diagnose.hpp"
@@ -34,98 +33,14 @@ using namespace odoerr::sim;
 
 namespace {
 
-/// Writes a whole file or explains why not (naming the path).
-bool writeFile(const fs::path& path, const std::string& text, std::string* err) {
-  std::ofstream f(path, std::ios::binary);
-  if (!f) {
-    *err = "cannot open '" + path.string() + "' for writing: " + std::strerror(errno);
-    return false;
-  }
-  f << text;
-  f.close();
-  if (!f) {
-    *err = "failed to write '" + path.string() + "'";
-    return false;
-  }
-  return true;
-}
+using cli::prepareOutDir;
+using cli::ProgressBar;
+using cli::pythonInterpreter;
+using cli::shellQuote;
+using cli::writeFile;
 
-/// Creates DIR and proves it writable before any long computation starts.
-bool prepareOutDir(const fs::path& dir, std::string* err) {
-  std::error_code ec;
-  fs::create_directories(dir, ec);
-  if (ec) {
-    *err = "cannot create output directory '" + dir.string() + "': " + ec.message();
-    return false;
-  }
-  const fs::path probe = dir / ".odoerr-write-test";
-  if (!writeFile(probe, "", err)) {
-    *err = "output directory '" + dir.string() + "' is not writable: " + *err;
-    return false;
-  }
-  fs::remove(probe, ec);
-  return true;
-}
-
-std::string pythonInterpreter() {
-  if (const char* p = std::getenv("ODOERR_PYTHON")) return p;
-  // Debian's interpreter carries python3-matplotlib; a pyenv/venv python3 may not.
-  if (fs::exists("/usr/bin/python3")) return "/usr/bin/python3";
-  return "python3";
-}
-
-std::string plotScript() {
-  if (const char* p = std::getenv("ODOERR_PLOT_SCRIPT")) return p;
-  return ODOERR_PLOT_SCRIPT;
-}
-
-std::string reportScript() {
-  if (const char* p = std::getenv("ODOERR_REPORT_SCRIPT")) return p;
-  return ODOERR_REPORT_SCRIPT;
-}
-
-std::string shellQuote(const std::string& s) {
-  std::string out = "'";
-  for (char c : s) {
-    if (c == '\'') {
-      out += "'\\''";
-    } else {
-      out += c;
-    }
-  }
-  return out + "'";
-}
-
-class ProgressBar {
- public:
-  explicit ProgressBar(std::string label) : label_(std::move(label)), t0_(clock::now()) {}
-  void operator()(int done, int total) {
-    if (!tty_) {
-      // Logs (CI, pipes): one line per quarter instead of carriage-return redraws.
-      const int quarter = total > 0 ? done * 4 / total : 4;
-      if (quarter == last_quarter_) return;
-      last_quarter_ = quarter;
-      const double secs = std::chrono::duration<double>(clock::now() - t0_).count();
-      std::fprintf(stderr, "%s: %d/%d runs %.1f s\n", label_.c_str(), done, total, secs);
-      return;
-    }
-    constexpr int kWidth = 40;
-    const int filled = total > 0 ? done * kWidth / total : kWidth;
-    const double secs = std::chrono::duration<double>(clock::now() - t0_).count();
-    std::fprintf(stderr, "\r%s [", label_.c_str());
-    for (int i = 0; i < kWidth; ++i) std::fputc(i < filled ? '#' : '.', stderr);
-    std::fprintf(stderr, "] %d/%d runs %.1f s", done, total, secs);
-    if (done >= total) std::fputc('\n', stderr);
-    std::fflush(stderr);
-  }
-
- private:
-  using clock = std::chrono::steady_clock;
-  std::string label_;
-  clock::time_point t0_;
-  bool tty_ = isatty(fileno(stderr)) != 0;
-  int last_quarter_ = -1;
-};
+std::string plotScript() { return cli::scriptPath("ODOERR_PLOT_SCRIPT", ODOERR_PLOT_SCRIPT); }
+std::string reportScript() { return cli::scriptPath("ODOERR_REPORT_SCRIPT", ODOERR_REPORT_SCRIPT); }
 
 int runDiagnose(const std::string& log_path, const std::string& json_path, DiagnoseOptions opt, bool quiet) {
   const char* who = quiet ? "odoerr report" : "odoerr diagnose";
@@ -445,7 +360,12 @@ int main(int argc, char** argv) {
   double rp_cycle = 0.01;
   replay->add_option("--cycle-m", rp_cycle, "encoder travel per filter cycle (m)")->check(CLI::PositiveNumber);
 
+  cli::Commands commands;
+  registerCommands(app, commands);
+
   CLI11_PARSE(app, argc, argv);
+
+  if (const int rc = commands.runParsed(); rc >= 0) return rc;
 
   if (paper->parsed()) {
     return runPaper(drive, runs, out, seed, threads, !no_plots, pose_term, window);

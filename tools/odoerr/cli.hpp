@@ -1,0 +1,70 @@
+// odoerr tool: what every subcommand shares (file output, the Python interpreter, a
+// progress bar) and the registry through which a subcommand family in its own file joins
+// the tool (cmd_*.cpp: one family per file, one hook in main.cpp).
+#pragma once
+
+#include <CLI/CLI.hpp>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include <unistd.h>
+
+namespace odoerr::cli {
+
+/// Writes a whole file or explains why not (naming the path).
+bool writeFile(const std::filesystem::path& path, const std::string& text, std::string* err);
+
+/// Creates DIR and proves it writable before any long computation starts.
+bool prepareOutDir(const std::filesystem::path& dir, std::string* err);
+
+/// The Python that runs the plot and report scripts: $ODOERR_PYTHON, else Debian's.
+std::string pythonInterpreter();
+
+/// s quoted for /bin/sh.
+std::string shellQuote(const std::string& s);
+
+/// A script shipped with the tool: $ENV_VAR when set, else the build's default path.
+std::string scriptPath(const char* env_var, const char* fallback);
+
+/// Runs `python3 SCRIPT ARGS...` (each argument quoted); returns its exit status.
+int runPython(const std::string& script, const std::vector<std::string>& args);
+
+/// A progress line on stderr: redrawn on a terminal, a line per quarter in logs.
+class ProgressBar {
+ public:
+  explicit ProgressBar(std::string label) : label_(std::move(label)), t0_(clock::now()) {}
+  void operator()(int done, int total);
+
+ private:
+  using clock = std::chrono::steady_clock;
+  std::string label_;
+  clock::time_point t0_;
+  bool tty_ = isatty(fileno(stderr)) != 0;
+  int last_quarter_ = -1;
+};
+
+/// Subcommands registered by their own files. A registration adds its subcommand to the
+/// app and returns the function that runs it once parsed (its exit status).
+class Commands {
+ public:
+  void add(CLI::App* sub, std::function<int()> run) { cmds_.push_back({sub, std::move(run)}); }
+  /// The exit status of the parsed registered subcommand, or -1 when none of them was parsed.
+  int runParsed() const {
+    for (const auto& c : cmds_)
+      if (c.sub->parsed()) return c.run();
+    return -1;
+  }
+
+ private:
+  struct Entry {
+    CLI::App* sub;
+    std::function<int()> run;
+  };
+  std::vector<Entry> cmds_;
+};
+
+}  // namespace odoerr::cli

@@ -1,0 +1,12 @@
+// odoerr tool: the subcommand families that live in their own files (cmd_*.cpp). Each
+// adds its subcommands to the app and registers what runs them.
+#pragma once
+
+#include "cli.hpp"
+
+namespace odoerr {
+
+/// Every family below, in the order `odoerr --help` lists them.
+void registerCommands(CLI::App& app, cli::Commands& cmds);
+
+}  // namespace odoerr
