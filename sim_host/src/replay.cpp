@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "odoerr/fw/paper_setup.hpp"
+#include "odoerr/sim/host_map.hpp"
 #include "odoerr/sim/stats.hpp"
 
 namespace odoerr::sim {
@@ -19,14 +20,9 @@ namespace {
 template <template <typename> class DriveT>
 bool run(const Odolog& log, const ReplayOptions& opt, ReplaySummary* sum, std::string* error) {
   using S = double;
-  using Est = typename fw::PaperTypes<S, DriveT>::EstimatorT;
-  using M = typename Est::Model;
+  using M = typename fw::PaperTypes<S, DriveT>::ModelT;
+  using Est = HostEstimator<M>;
   constexpr bool kSync = fw::PaperTypes<S, DriveT>::kSync;
-  if (static_cast<int>(log.walls.size()) > Est::MapT::kMaxWalls) {
-    *error = log.path + ": the map has " + std::to_string(log.walls.size()) + " walls; the replay supports " +
-             std::to_string(Est::MapT::kMaxWalls);
-    return false;
-  }
   if (log.has_laser && log.laser.beams > Est::LaserT::kMaxBeams) {
     *error = log.path + ": the laser has " + std::to_string(log.laser.beams) + " beams; the replay supports " +
              std::to_string(Est::LaserT::kMaxBeams);
@@ -45,20 +41,24 @@ bool run(const Odolog& log, const ReplayOptions& opt, ReplaySummary* sum, std::s
   const DriveConstants dc = driveConstants(log, kSync);
   const double ticks_a = dc.ticks_a, ticks_b = dc.ticks_b;
   if constexpr (!kSync) drive.wheelbase = S(dc.wheelbase);
-  typename Est::MapT map;
-  for (const auto& w : log.walls) (void)map.add({w.x1, w.y1, w.x2, w.y2});
+  HostMap<S> map;
+  std::string map_err;
+  if (!map.build(log.walls, opt.map_cell_m, &map_err)) {
+    *error = log.path + ": " + map_err;
+    return false;
+  }
   LaserConfig<S> lc;
   if (log.has_laser) {
     lc = {log.laser.beams, log.laser.angle_min, log.laser.angle_inc, log.laser.range_max,
           log.laser.sigma, log.laser.mount_x, log.laser.mount_y, log.laser.mount_yaw};
   }
   typename Est::LaserT laser;
-  if (!laser.init(lc)) {
+  if (!laser.init(lc, opt.beams_used)) {
     *error = log.path + ": the laser set-up is not usable";
     return false;
   }
   fw::FilterSetup setup;
-  Est est(M(drive), map, laser, {S(setup.akf.max_incidence_rad), S(setup.akf.gate_nis)}, setup.of);
+  Est est(M(drive), map.view(), laser, {S(setup.akf.max_incidence_rad), S(setup.akf.gate_nis)}, setup.of);
   typename M::StateVec x0 = M::StateVec::Zero();
   x0[0] = log.init.x;
   x0[1] = log.init.y;

@@ -262,8 +262,8 @@ class Akf {
   /// Fuses one scan (ranges in beam order, nan = no return) against the map, one scalar
   /// beam at a time. The heading's (cos, sin) is carried through the sequential updates
   /// by exact small-angle rotations, so the loop makes no library trigonometry calls.
-  template <int MaxWalls, int MaxBeams>
-  ScanStats<S> updateScan(const SegmentMap<S, MaxWalls>& map,
+  template <typename MapT, int MaxBeams>
+  ScanStats<S> updateScan(const MapT& map,
                           const LaserGeometry<S, MaxBeams>& laser, const S* ranges) {
     return updateScan(map, laser, ranges, NoObserver{});
   }
@@ -284,15 +284,27 @@ class Akf {
   };
 
   /// updateScan that reports every beam to `observe(const BeamRecord&)`.
-  template <int MaxWalls, int MaxBeams, typename Observer>
-  ScanStats<S> updateScan(const SegmentMap<S, MaxWalls>& map,
+  template <typename MapT, int MaxBeams, typename Observer>
+  ScanStats<S> updateScan(const MapT& map,
                           const LaserGeometry<S, MaxBeams>& laser, const S* ranges,
                           Observer&& observe) {
     ScanStats<S> st;
     S c;
     S sn;
     headingCosSin(&c, &sn);
-    for (int i = 0; i < laser.beams(); ++i) {
+    // The beams of this scan (LaserGeometry: beam selection): every beam, or one per slot.
+    const int stride = laser.stride();
+    const int phase = scan_phase_;
+    if (stride > 1) scan_phase_ = phase + 1 < stride ? phase + 1 : 0;
+    const S range_max = laser.config().range_max;
+    for (int k = 0; k < laser.used(); ++k) {
+      int i = k;
+      if (stride > 1) {
+        i = laser.slotBeam(k, phase);
+        for (int j = 1; j < stride && !(ranges[i] > S(0) && ranges[i] <= range_max); ++j) {
+          i = laser.slotBeam(k, phase + j < stride ? phase + j : phase + j - stride);
+        }
+      }
       S nis = S(0);
       S dth = S(0);
       constexpr bool kObserved = !std::is_same_v<std::decay_t<Observer>, NoObserver>;
@@ -317,8 +329,8 @@ class Akf {
   }
 
   /// One scalar range update of beam i. On success returns kOk and the beam's NIS.
-  template <int MaxWalls, int MaxBeams>
-  [[nodiscard]] Status updateBeam(const SegmentMap<S, MaxWalls>& map,
+  template <typename MapT, int MaxBeams>
+  [[nodiscard]] Status updateBeam(const MapT& map,
                                   const LaserGeometry<S, MaxBeams>& laser, int i, S measured,
                                   S* nis_out = nullptr) {
     S c;
@@ -338,8 +350,8 @@ class Akf {
 
   /// Expected range of beam i from a robot pose, with dr/d(x, y, theta); (c, sn) are the
   /// cosine and sine of the pose's heading. kNoMapHit / kGrazing when not usable.
-  template <int MaxWalls, int MaxBeams>
-  static Status expectedRange(const SegmentMap<S, MaxWalls>& map,
+  template <typename MapT, int MaxBeams>
+  static Status expectedRange(const MapT& map,
                               const LaserGeometry<S, MaxBeams>& laser, S x, S y, S c, S sn,
                               int i, S min_cos_incidence, S* range, Eigen::Matrix<S, 1, 3>* h,
                               BeamContext<S>* geo = nullptr, const RayShift<S>* shift = nullptr) {
@@ -353,7 +365,7 @@ class Akf {
       ly += shift->dly;
       rotate(&ux, &uy, shift->da);
     }
-    const RayHit<S> hit = map.castDir(lx, ly, ux, uy);
+    const RayHit<S> hit = map.castDir(lx, ly, ux, uy, S(1e-6), cfg.range_max);
     if (!hit.hit) return Status::kNoMapHit;
     if (std::abs(hit.n_dot_u) < min_cos_incidence) return Status::kGrazing;
     *range = hit.range;
@@ -376,8 +388,8 @@ class Akf {
   }
 
   /// Convenience form of expectedRange taking a pose and an incidence limit in radians.
-  template <int MaxWalls, int MaxBeams>
-  static Status expectedRange(const SegmentMap<S, MaxWalls>& map,
+  template <typename MapT, int MaxBeams>
+  static Status expectedRange(const MapT& map,
                               const LaserGeometry<S, MaxBeams>& laser, const Pose<S>& p, int i,
                               S max_incidence, S* range, Eigen::Matrix<S, 1, 3>* h) {
     return expectedRange(map, laser, p.x, p.y, std::cos(p.theta), std::sin(p.theta), i,
@@ -386,8 +398,8 @@ class Akf {
 
   /// Predicts every beam of a scan at the current state without fusing it (held-out
   /// evaluation): reports each beam's record to `observe` as updateScan would.
-  template <int MaxWalls, int MaxBeams, typename Observer>
-  void evaluateScan(const SegmentMap<S, MaxWalls>& map, const LaserGeometry<S, MaxBeams>& laser,
+  template <typename MapT, int MaxBeams, typename Observer>
+  void evaluateScan(const MapT& map, const LaserGeometry<S, MaxBeams>& laser,
                     const S* ranges, Observer&& observe) const {
     S sn;
     S c;
@@ -426,8 +438,8 @@ class Akf {
 
   /// Predicted range of beam i at the current state (heading cos/sin given) and the first
   /// kHCols entries of its row of H.
-  template <int MaxWalls, int MaxBeams>
-  Status predictBeam(const SegmentMap<S, MaxWalls>& map, const LaserGeometry<S, MaxBeams>& laser,
+  template <typename MapT, int MaxBeams>
+  Status predictBeam(const MapT& map, const LaserGeometry<S, MaxBeams>& laser,
                      int i, S c, S sn, S* predicted, S* hf) const {
     Eigen::Matrix<S, 1, 3> h;
     if constexpr (Model::kHasMeasurementEffects) {
@@ -493,8 +505,8 @@ class Akf {
     *c = c2;
   }
 
-  template <bool kReport, int MaxWalls, int MaxBeams>
-  Status updateBeamCS(const SegmentMap<S, MaxWalls>& map, const LaserGeometry<S, MaxBeams>& laser,
+  template <bool kReport, typename MapT, int MaxBeams>
+  Status updateBeamCS(const MapT& map, const LaserGeometry<S, MaxBeams>& laser,
                       int i, S measured, S c, S sn, S* nis_out, S* dtheta_out, S* predicted_out,
                       S* variance_out) {
     const LaserConfig<S>& cfg = laser.config();
@@ -609,6 +621,7 @@ class Akf {
   S cache_c_ = S(1);
   S cache_s_ = S(0);
   int cache_age_ = 0;
+  int scan_phase_ = 0;  ///< the first beam of each slot in the next scan (beam selection)
   StateVec x_ = StateVec::Zero();
   StateMat p_ = StateMat::Identity();
   AkfCounters counters_{};

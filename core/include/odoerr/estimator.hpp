@@ -20,7 +20,10 @@ struct PoseFix {
   S x, y, theta, sx, sy, stheta;
 };
 
-template <typename ModelT, int MaxWalls = 16, int MaxWindow = 32, int MaxBeams = 64>
+/// MapArg: a SegmentMap (owns its walls; copied with the estimator) or a MapView (the tables
+/// live elsewhere, e.g. in flash; they must outlive the estimator).
+template <typename ModelT, typename MapArg = SegmentMap<typename ModelT::Scalar, 16>, int MaxWindow = 32,
+          int MaxBeams = 64>
 class Estimator {
  public:
   using Model = ModelT;
@@ -28,7 +31,7 @@ class Estimator {
   using Input = typename Model::Input;
   using AkfT = Akf<Model>;
   using OfT = ObservableFilter<Model, MaxWindow>;
-  using MapT = SegmentMap<S, MaxWalls>;
+  using MapT = MapArg;
   using LaserT = LaserGeometry<S, MaxBeams>;
 
   /// The laser geometry must have been initialised (LaserGeometry::init returned true).

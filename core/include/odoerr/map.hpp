@@ -1,9 +1,25 @@
-// odoerr core: a known map of line segments and the ray-segment intersection used both to
-// predict a beam's range (filter) and to simulate it (sim_host).
+// odoerr core: a known map of line segments and the ray cast that predicts a beam's range
+// (filter) and simulates it (sim_host).
+//
+// The map's tables are plain arrays: the walls, and optionally a uniform grid over them
+// whose cells list the walls that touch them (compressed rows: cell c owns the items
+// cell_start[c] .. cell_start[c + 1] - 1). A ray walks the grid cell by cell (Amanatides &
+// Woo) and stops in the first cell that holds its nearest hit, so a beam tests only the
+// walls near its own path, whatever the size of the map. Without a grid every wall is
+// tested (small maps, where that is cheaper).
+//
+// Two holders of the same tables:
+// - SegmentMap<S, MaxWalls, MaxCells, MaxItems>: owns fixed-capacity arrays; walls are
+//   added at set-up and the index is built once (buildIndex). No heap.
+// - MapView<S>: points at tables that live elsewhere, e.g. a constant table generated on
+//   the host (`odoerr map compile`) and linked into the firmware's flash: nothing is built
+//   at boot. Cheap to copy.
+// Both cast rays with the same function (castTables), so they agree bit for bit.
 #pragma once
 
-#include <Eigen/Core>
+#include <cstdint>
 
+#include "odoerr/laser.hpp"
 #include "odoerr/scalar.hpp"
 
 namespace odoerr {
@@ -24,134 +40,373 @@ struct RayHit {
   S n_dot_u = S(0); ///< normal . ray direction: |n.u| = cos(incidence angle)
 };
 
-/// A fixed-capacity map (no heap). Walls are added at set-up time.
-template <typename S, int MaxWalls = 32>
-class SegmentMap {
- public:
-  static constexpr int kMaxWalls = MaxWalls;
+/// One wall as the ray cast reads it: start point, direction (end - start) and unit normal
+/// (-ey, ex) / |e|.
+template <typename S>
+struct WallRec {
+  S x1, y1, ex, ey, nx, ny;
+};
 
-  /// Adds a wall; returns false when the map is full or the segment is degenerate or
-  /// not finite.
-  [[nodiscard]] bool add(const Segment<S>& w) {
-    if (count_ >= MaxWalls) return false;
-    if (!(isFinite(w.x1) && isFinite(w.y1) && isFinite(w.x2) && isFinite(w.y2))) return false;
-    const S ex = w.x2 - w.x1;
-    const S ey = w.y2 - w.y1;
-    const S len = std::sqrt(ex * ex + ey * ey);
-    if (!(len > S(0))) return false;
-    Wall& d = walls_[count_++];
-    d.seg = w;
-    d.ex = ex;
-    d.ey = ey;
-    d.nx = -ey / len;
-    d.ny = ex / len;
-    return true;
+/// Returns false when the segment is degenerate or not finite.
+template <typename S>
+inline bool makeWallRec(const Segment<S>& w, WallRec<S>* out) {
+  if (!(isFinite(w.x1) && isFinite(w.y1) && isFinite(w.x2) && isFinite(w.y2))) return false;
+  const S ex = w.x2 - w.x1;
+  const S ey = w.y2 - w.y1;
+  const S len = std::sqrt(ex * ex + ey * ey);
+  if (!(len > S(0))) return false;
+  *out = WallRec<S>{w.x1, w.y1, ex, ey, -ey / len, ex / len};
+  return true;
+}
+
+/// The index type of the grid's tables (walls and items are counted in it).
+using MapIndex = std::uint16_t;
+constexpr int kMaxMapIndex = 65535;
+
+/// A uniform grid over [x0, x0 + nx cell) x [y0, y0 + ny cell). nx == 0: no grid.
+template <typename S>
+struct GridSpec {
+  S x0 = S(0), y0 = S(0), cell = S(1), inv_cell = S(1);
+  int nx = 0, ny = 0;
+};
+
+/// The map's tables, not owned. cell_start has nx * ny + 1 entries.
+template <typename S>
+struct MapTables {
+  const WallRec<S>* walls = nullptr;
+  int n_walls = 0;
+  GridSpec<S> grid{};
+  const MapIndex* cell_start = nullptr;
+  const MapIndex* cell_items = nullptr;
+};
+
+namespace map_detail {
+
+/// The ray p + r u against one wall; keeps it in (best, best_rn/best_den) when it is hit at
+/// r > min_range and nearer than the best so far. Candidates are compared on numerators
+/// (r = rn / den): no division per wall.
+template <typename S>
+inline void testWall(const WallRec<S>& w, int index, S px, S py, S ux, S uy, S min_range, RayHit<S>* best,
+                     S* best_rn, S* best_den) {
+  // Solve p + r u = a + t e.  denom = u x e
+  S denom = ux * w.ey - uy * w.ex;
+  if (denom == S(0)) return;  // parallel
+  const S ax = w.x1 - px;
+  const S ay = w.y1 - py;
+  S rn = ax * w.ey - ay * w.ex;
+  S tn = ax * uy - ay * ux;
+  if (denom < S(0)) {
+    denom = -denom;
+    rn = -rn;
+    tn = -tn;
   }
+  if (!(rn > min_range * denom) || tn < S(0) || tn > denom) return;
+  if (best->hit && rn * *best_den >= *best_rn * denom) return;  // not nearer
+  best->hit = true;
+  best->wall = index;
+  *best_rn = rn;
+  *best_den = denom;
+}
 
-  int size() const { return count_; }
-  const Segment<S>& wall(int i) const { return walls_[i].seg; }
+/// Entry distance of the ray into [lo, hi] along one axis, and exit; false when the ray
+/// misses the slab.
+template <typename S>
+inline bool slab(S p, S u, S lo, S hi, S* t_in, S* t_out) {
+  if (u == S(0)) return p >= lo && p <= hi;
+  S a = (lo - p) / u;
+  S b = (hi - p) / u;
+  if (a > b) {
+    const S t = a;
+    a = b;
+    b = t;
+  }
+  if (a > *t_in) *t_in = a;
+  if (b < *t_out) *t_out = b;
+  return *t_in <= *t_out;
+}
+
+}  // namespace map_detail
+
+/// Nearest intersection of the ray p + r u (u a unit vector), min_range < r <= max_range,
+/// with the walls of `m`.
+template <typename S>
+inline RayHit<S> castTables(const MapTables<S>& m, S px, S py, S ux, S uy, S min_range, S max_range) {
+  RayHit<S> best;
+  S best_rn = S(0);
+  S best_den = S(1);
+  const GridSpec<S>& g = m.grid;
+  if (g.nx == 0) {
+    for (int i = 0; i < m.n_walls; ++i) map_detail::testWall(m.walls[i], i, px, py, ux, uy, min_range, &best, &best_rn, &best_den);
+  } else {
+    // Clip the ray to the grid's box; t0 is where it enters (0 inside).
+    const S w = g.cell * S(g.nx);
+    const S h = g.cell * S(g.ny);
+    S t0 = S(0);
+    S t1 = max_range;
+    if (!map_detail::slab(px, ux, g.x0, g.x0 + w, &t0, &t1) || !map_detail::slab(py, uy, g.y0, g.y0 + h, &t0, &t1)) {
+      return best;
+    }
+    const S ex = px + t0 * ux - g.x0;
+    const S ey = py + t0 * uy - g.y0;
+    int ix = static_cast<int>(ex * g.inv_cell);
+    int iy = static_cast<int>(ey * g.inv_cell);
+    ix = ix < 0 ? 0 : (ix >= g.nx ? g.nx - 1 : ix);
+    iy = iy < 0 ? 0 : (iy >= g.ny ? g.ny - 1 : iy);
+    // Distances along the ray to the next vertical / horizontal cell border, and between
+    // borders (infinite along an axis the ray does not move on).
+    const int step_x = ux > S(0) ? 1 : -1;
+    const int step_y = uy > S(0) ? 1 : -1;
+    const S big = S(1e30);
+    S t_max_x = big;
+    S t_max_y = big;
+    S dt_x = big;
+    S dt_y = big;
+    if (ux != S(0)) {
+      const S inv = S(1) / ux;
+      const S border = g.x0 + S(ix + (ux > S(0) ? 1 : 0)) * g.cell;
+      t_max_x = (border - px) * inv;
+      dt_x = g.cell * (inv < S(0) ? -inv : inv);
+    }
+    if (uy != S(0)) {
+      const S inv = S(1) / uy;
+      const S border = g.y0 + S(iy + (uy > S(0) ? 1 : 0)) * g.cell;
+      t_max_y = (border - py) * inv;
+      dt_y = g.cell * (inv < S(0) ? -inv : inv);
+    }
+    for (;;) {
+      const int c = iy * g.nx + ix;
+      const int end = m.cell_start[c + 1];
+      for (int k = m.cell_start[c]; k < end; ++k) {
+        const int i = m.cell_items[k];
+        map_detail::testWall(m.walls[i], i, px, py, ux, uy, min_range, &best, &best_rn, &best_den);
+      }
+      // The nearest hit so far lies in this cell or before it: no later cell can hold a
+      // nearer one (every wall is listed in every cell it touches).
+      const S t_exit = t_max_x < t_max_y ? t_max_x : t_max_y;
+      if (best.hit && best_rn <= t_exit * best_den) break;
+      if (t_exit > t1) break;
+      if (t_max_x < t_max_y) {
+        ix += step_x;
+        if (ix < 0 || ix >= g.nx) break;
+        t_max_x += dt_x;
+      } else {
+        iy += step_y;
+        if (iy < 0 || iy >= g.ny) break;
+        t_max_y += dt_y;
+      }
+    }
+  }
+  if (best.hit) {
+    const WallRec<S>& wr = m.walls[best.wall];
+    best.range = best_rn / best_den;
+    if (best.range > max_range) return RayHit<S>{};
+    best.nx = wr.nx;
+    best.ny = wr.ny;
+    best.n_dot_u = wr.nx * ux + wr.ny * uy;
+  }
+  return best;
+}
+
+/// Whether wall w touches the closed cell [cx0, cx0 + cell] x [cy0, cy0 + cell] (grown by
+/// a small margin, so that rounding never drops a wall from a cell its ray may meet).
+template <typename S>
+inline bool wallTouchesCell(const WallRec<S>& w, S cx0, S cy0, S cell) {
+  const S m = cell * S(1e-3);
+  const S lo_x = cx0 - m, hi_x = cx0 + cell + m, lo_y = cy0 - m, hi_y = cy0 + cell + m;
+  const S x2 = w.x1 + w.ex, y2 = w.y1 + w.ey;
+  // Bounding boxes first.
+  if ((w.x1 < lo_x && x2 < lo_x) || (w.x1 > hi_x && x2 > hi_x) || (w.y1 < lo_y && y2 < lo_y) ||
+      (w.y1 > hi_y && y2 > hi_y)) {
+    return false;
+  }
+  // Then the wall's line: the box's corners must not all lie strictly on one side.
+  const S d[4] = {w.ex * (lo_y - w.y1) - w.ey * (lo_x - w.x1), w.ex * (lo_y - w.y1) - w.ey * (hi_x - w.x1),
+                  w.ex * (hi_y - w.y1) - w.ey * (lo_x - w.x1), w.ex * (hi_y - w.y1) - w.ey * (hi_x - w.x1)};
+  const bool all_pos = d[0] > S(0) && d[1] > S(0) && d[2] > S(0) && d[3] > S(0);
+  const bool all_neg = d[0] < S(0) && d[1] < S(0) && d[2] < S(0) && d[3] < S(0);
+  return !all_pos && !all_neg;
+}
+
+/// Why an index could not be built.
+enum class IndexStatus : std::uint8_t { kOk, kBadCell, kTooManyCells, kTooManyItems };
+
+/// The grid for `n` walls at cell size `cell`: a box around the walls, one cell of margin.
+template <typename S>
+inline IndexStatus gridFor(const WallRec<S>* walls, int n, S cell, int max_cells, GridSpec<S>* g) {
+  if (!(cell > S(0)) || !isFinite(cell) || n <= 0) return IndexStatus::kBadCell;
+  S lo_x = walls[0].x1, hi_x = lo_x, lo_y = walls[0].y1, hi_y = lo_y;
+  for (int i = 0; i < n; ++i) {
+    const S xs[2] = {walls[i].x1, walls[i].x1 + walls[i].ex};
+    const S ys[2] = {walls[i].y1, walls[i].y1 + walls[i].ey};
+    for (int k = 0; k < 2; ++k) {
+      lo_x = xs[k] < lo_x ? xs[k] : lo_x;
+      hi_x = xs[k] > hi_x ? xs[k] : hi_x;
+      lo_y = ys[k] < lo_y ? ys[k] : lo_y;
+      hi_y = ys[k] > hi_y ? ys[k] : hi_y;
+    }
+  }
+  const S nxf = (hi_x - lo_x) / cell + S(3);
+  const S nyf = (hi_y - lo_y) / cell + S(3);
+  if (!(nxf * nyf <= S(max_cells))) return IndexStatus::kTooManyCells;
+  g->cell = cell;
+  g->inv_cell = S(1) / cell;
+  g->nx = static_cast<int>(nxf);
+  g->ny = static_cast<int>(nyf);
+  g->x0 = lo_x - cell;
+  g->y0 = lo_y - cell;
+  return IndexStatus::kOk;
+}
+
+/// Fills the grid's compressed rows: cell_start (nx * ny + 1 entries) and cell_items (at
+/// most max_items), each cell's walls in index order. Each wall visits only the cells of
+/// its bounding box; two passes (count, then fill), no heap.
+template <typename S>
+inline IndexStatus fillGrid(const WallRec<S>* walls, int n, const GridSpec<S>& g, MapIndex* cell_start,
+                            MapIndex* cell_items, int max_items, int* items_used) {
+  const int cells = g.nx * g.ny;
+  // The first pass counts cell c's walls in cell_start[c + 1]; the second fills through
+  // cell_start[c] as the cursor; a final shift restores the starts.
+  for (int c = 0; c <= cells; ++c) cell_start[c] = 0;
+  auto cellRange = [&g](S a, S b, S origin, int n_cells, int* lo, int* hi) {
+    const S mn = a < b ? a : b, mx = a < b ? b : a;
+    *lo = static_cast<int>((mn - origin) * g.inv_cell) - 1;
+    *hi = static_cast<int>((mx - origin) * g.inv_cell) + 1;
+    *lo = *lo < 0 ? 0 : *lo;
+    *hi = *hi >= n_cells ? n_cells - 1 : *hi;
+  };
+  int total = 0;
+  for (int pass = 0; pass < 2; ++pass) {
+    for (int i = 0; i < n; ++i) {
+      const WallRec<S>& w = walls[i];
+      int x_lo, x_hi, y_lo, y_hi;
+      cellRange(w.x1, w.x1 + w.ex, g.x0, g.nx, &x_lo, &x_hi);
+      cellRange(w.y1, w.y1 + w.ey, g.y0, g.ny, &y_lo, &y_hi);
+      for (int iy = y_lo; iy <= y_hi; ++iy) {
+        for (int ix = x_lo; ix <= x_hi; ++ix) {
+          if (!wallTouchesCell(w, g.x0 + S(ix) * g.cell, g.y0 + S(iy) * g.cell, g.cell)) continue;
+          const int c = iy * g.nx + ix;
+          if (pass == 0) {
+            if (total >= max_items || total >= kMaxMapIndex) return IndexStatus::kTooManyItems;
+            ++total;
+            ++cell_start[c + 1];
+          } else {
+            cell_items[cell_start[c]++] = static_cast<MapIndex>(i);
+          }
+        }
+      }
+    }
+    if (pass == 0) {  // counts to starts: cell_start[c] is now cell c's start, the fill cursor
+      for (int c = 0; c < cells; ++c) cell_start[c + 1] = static_cast<MapIndex>(cell_start[c + 1] + cell_start[c]);
+    }
+  }
+  // The cursors ended at each cell's end, which is the next cell's start.
+  for (int c = cells; c > 0; --c) cell_start[c] = cell_start[c - 1];
+  cell_start[0] = 0;
+  *items_used = total;
+  return IndexStatus::kOk;
+}
+
+/// A map whose tables live elsewhere (constant tables in flash, or a host builder's).
+template <typename S>
+class MapView {
+ public:
+  MapView() = default;
+  constexpr explicit MapView(const MapTables<S>& t) : t_(t) {}
+
+  int size() const { return t_.n_walls; }
+  Segment<S> wall(int i) const {
+    const WallRec<S>& w = t_.walls[i];
+    return {w.x1, w.y1, w.x1 + w.ex, w.y1 + w.ey};
+  }
+  const MapTables<S>& tables() const { return t_; }
 
   /// Nearest intersection of the ray p + r (cos a, sin a), r > min_range, with the map.
   RayHit<S> cast(S px, S py, S angle, S min_range = S(1e-6)) const {
     return castDir(px, py, std::cos(angle), std::sin(angle), min_range);
   }
-
-  /// The same with the unit direction (ux, uy) given.
-  RayHit<S> castDir(S px, S py, S ux, S uy, S min_range = S(1e-6)) const {
-    RayHit<S> best;
-    // Candidates are compared on numerators (r = rn / denom, t = tn / denom): one division
-    // per ray instead of two per wall.
-    S best_rn = S(0);
-    S best_den = S(1);
-    for (int i = 0; i < count_; ++i) {
-      const Wall& w = walls_[i];
-      // Solve p + r u = a + t e.  denom = u x e
-      S denom = ux * w.ey - uy * w.ex;
-      if (denom == S(0)) continue;  // parallel
-      const S ax = w.seg.x1 - px;
-      const S ay = w.seg.y1 - py;
-      S rn = ax * w.ey - ay * w.ex;
-      S tn = ax * uy - ay * ux;
-      if (denom < S(0)) {
-        denom = -denom;
-        rn = -rn;
-        tn = -tn;
-      }
-      if (!(rn > min_range * denom) || tn < S(0) || tn > denom) continue;
-      if (best.hit && rn * best_den >= best_rn * denom) continue;  // not nearer
-      best.hit = true;
-      best.wall = i;
-      best_rn = rn;
-      best_den = denom;
-    }
-    if (best.hit) {
-      const Wall& w = walls_[best.wall];
-      best.range = best_rn / best_den;
-      best.nx = w.nx;
-      best.ny = w.ny;
-      best.n_dot_u = w.nx * ux + w.ny * uy;
-    }
-    return best;
+  /// The same with the unit direction (ux, uy) given; hits beyond max_range are not hits.
+  RayHit<S> castDir(S px, S py, S ux, S uy, S min_range = S(1e-6), S max_range = S(1e30)) const {
+    return castTables(t_, px, py, ux, uy, min_range, max_range);
   }
 
  private:
-  struct Wall {
-    Segment<S> seg;
-    S ex, ey;  // direction (unnormalised)
-    S nx, ny;  // unit normal
-  };
-  Wall walls_[MaxWalls]{};
-  int count_ = 0;
+  MapTables<S> t_{};
 };
 
-/// Range finder set-up (the `laser` record of odolog v1).
-template <typename S>
-struct LaserConfig {
-  int beams = 36;
-  S angle_min = -kPi<S>;
-  S angle_inc = kTwoPi<S> / S(36);
-  S range_max = S(20);
-  S sigma = S(0.03);
-  S mount_x = S(0);
-  S mount_y = S(0);
-  S mount_yaw = S(0);
-};
+/// A fixed-capacity map that owns its tables (no heap). Walls are added at set-up time;
+/// buildIndex then builds the grid (MaxCells > 0), else every wall is tested per ray.
+template <typename S, int MaxWalls = 32, int MaxCells = 0, int MaxItems = 0>
+class SegmentMap {
+  static_assert(MaxWalls <= kMaxMapIndex && MaxItems <= kMaxMapIndex, "the index type counts up to 65535");
 
-/// The laser set-up with each beam's direction in the robot frame tabulated once, so that a
-/// beam costs no trigonometry in the filter's inner loop.
-template <typename S, int MaxBeams = 64>
-class LaserGeometry {
  public:
-  static constexpr int kMaxBeams = MaxBeams;
-  LaserGeometry() = default;
-  /// Returns false (and stays empty) when the set-up has too many beams or is not finite.
-  [[nodiscard]] bool init(const LaserConfig<S>& cfg) {
-    beams_ = 0;
-    if (cfg.beams < 0 || cfg.beams > MaxBeams) return false;
-    if (!(isFinite(cfg.angle_min) && isFinite(cfg.angle_inc) && isFinite(cfg.mount_x) &&
-          isFinite(cfg.mount_y) && isFinite(cfg.mount_yaw) && cfg.sigma > S(0) &&
-          cfg.range_max > S(0))) {
-      return false;
+  static constexpr int kMaxWalls = MaxWalls;
+  static constexpr int kMaxCells = MaxCells;
+
+  SegmentMap() = default;
+  SegmentMap(const SegmentMap& o) { *this = o; }
+  SegmentMap& operator=(const SegmentMap& o) {
+    for (int i = 0; i < o.count_; ++i) walls_[i] = o.walls_[i];
+    count_ = o.count_;
+    grid_ = o.grid_;
+    if (grid_.nx > 0) {
+      const int cells = grid_.nx * grid_.ny;
+      for (int c = 0; c <= cells; ++c) start_[c] = o.start_[c];
+      for (int k = 0; k < o.start_[cells]; ++k) items_[k] = o.items_[k];
     }
-    cfg_ = cfg;
-    for (int i = 0; i < cfg.beams; ++i) {
-      const S a = cfg.mount_yaw + cfg.angle_min + S(i) * cfg.angle_inc;
-      dir_c_[i] = std::cos(a);
-      dir_s_[i] = std::sin(a);
-    }
-    beams_ = cfg.beams;
+    return *this;
+  }
+
+  /// Adds a wall; returns false when the map is full or the segment is degenerate or
+  /// not finite. Adding a wall drops an index built before.
+  [[nodiscard]] bool add(const Segment<S>& w) {
+    if (count_ >= MaxWalls) return false;
+    WallRec<S> r;
+    if (!makeWallRec(w, &r)) return false;
+    walls_[count_++] = r;
+    grid_ = GridSpec<S>{};
     return true;
   }
-  int beams() const { return beams_; }
-  const LaserConfig<S>& config() const { return cfg_; }
-  S dirC(int i) const { return dir_c_[i]; }
-  S dirS(int i) const { return dir_s_[i]; }
+
+  /// Builds the grid index with square cells of `cell` metres.
+  [[nodiscard]] IndexStatus buildIndex(S cell) {
+    if constexpr (MaxCells == 0) {
+      (void)cell;
+      return IndexStatus::kTooManyCells;
+    } else {
+      GridSpec<S> g;
+      IndexStatus st = gridFor(walls_, count_, cell, MaxCells - 1, &g);
+      if (st != IndexStatus::kOk) return st;
+      int used = 0;
+      st = fillGrid(walls_, count_, g, start_, items_, MaxItems, &used);
+      if (st != IndexStatus::kOk) return st;
+      grid_ = g;
+      return IndexStatus::kOk;
+    }
+  }
+  /// The items the index holds (0 without an index).
+  int indexItems() const { return grid_.nx > 0 ? start_[grid_.nx * grid_.ny] : 0; }
+
+  int size() const { return count_; }
+  Segment<S> wall(int i) const { return view().wall(i); }
+  MapView<S> view() const { return MapView<S>(tables()); }
+  MapTables<S> tables() const { return MapTables<S>{walls_, count_, grid_, start_, items_}; }
+
+  RayHit<S> cast(S px, S py, S angle, S min_range = S(1e-6)) const {
+    return castDir(px, py, std::cos(angle), std::sin(angle), min_range);
+  }
+  RayHit<S> castDir(S px, S py, S ux, S uy, S min_range = S(1e-6), S max_range = S(1e30)) const {
+    return castTables(tables(), px, py, ux, uy, min_range, max_range);
+  }
 
  private:
-  LaserConfig<S> cfg_{};
-  int beams_ = 0;
-  S dir_c_[MaxBeams]{};
-  S dir_s_[MaxBeams]{};
+  static constexpr int kCells = MaxCells > 0 ? MaxCells : 1;
+  static constexpr int kItems = MaxItems > 0 ? MaxItems : 1;
+  WallRec<S> walls_[MaxWalls]{};
+  int count_ = 0;
+  GridSpec<S> grid_{};
+  MapIndex start_[kCells]{};
+  MapIndex items_[kItems]{};
 };
 
 }  // namespace odoerr

@@ -25,6 +25,7 @@
 #include "odoerr/estimator.hpp"
 #include "odoerr/fw/paper_setup.hpp"
 #include "odoerr/sim/diagnose.hpp"
+#include "odoerr/sim/host_map.hpp"
 #include "odoerr/sim/stats.hpp"
 
 namespace odoerr::sim::diag {
@@ -123,7 +124,7 @@ class Engine {
   using S = double;
   using Drive = DriveT<S>;
   using M = typename ModelOf<Drive, Effects>::type;
-  using Est = Estimator<M, 16, 32, 64>;
+  using Est = HostEstimator<M>;
   using StateVec = typename M::StateVec;
   using StateMat = typename M::StateMat;
   using KVec = typename Est::OfT::KVec;
@@ -171,14 +172,13 @@ class Engine {
 
   Engine(const Odolog& log, const DiagnoseOptions& opt, FeatureSlots slots = {})
       : log_(log), opt_(opt), slots_(std::move(slots)) {}
+  Engine(const Engine&) = delete;  // map_ points into host_map_
+  Engine& operator=(const Engine&) = delete;
 
   bool prepare(std::string* error) {
-    if (log_.walls.size() > 16) {
-      *error = log_.path + ": the map has " + std::to_string(log_.walls.size()) + " walls; diagnose supports 16";
-      return false;
-    }
-    if (log_.has_laser && log_.laser.beams > 64) {
-      *error = log_.path + ": the laser has " + std::to_string(log_.laser.beams) + " beams; diagnose supports 64";
+    if (log_.has_laser && log_.laser.beams > Est::LaserT::kMaxBeams) {
+      *error = log_.path + ": the laser has " + std::to_string(log_.laser.beams) + " beams; diagnose supports " +
+               std::to_string(Est::LaserT::kMaxBeams);
       return false;
     }
     if (!log_.has_init) {
@@ -197,7 +197,12 @@ class Engine {
     ticks_a_ = dc.ticks_a;
     ticks_b_ = dc.ticks_b;
     if constexpr (!kSync) drive_.wheelbase = dc.wheelbase;
-    for (const auto& w : log_.walls) (void)map_.add({w.x1, w.y1, w.x2, w.y2});
+    std::string map_err;
+    if (!host_map_.build(log_.walls, opt_.map_index_cell_m, &map_err)) {
+      *error = log_.path + ": " + map_err;
+      return false;
+    }
+    map_ = host_map_.view();
     if (log_.has_laser) {
       lc_ = {log_.laser.beams, log_.laser.angle_min, log_.laser.angle_inc, log_.laser.range_max,
              log_.laser.sigma, log_.laser.mount_x, log_.laser.mount_y, log_.laser.mount_yaw};
@@ -638,7 +643,8 @@ class Engine {
   FeatureSlots slots_;
   Drive drive_{};
   double ticks_a_ = 1, ticks_b_ = 1;
-  typename Est::MapT map_;
+  HostMap<S> host_map_;
+  typename Est::MapT map_;  ///< a view of host_map_
   LaserConfig<S> lc_{};
   typename Est::LaserT laser_;
   std::vector<EffectInfo> effects_;

@@ -395,8 +395,8 @@ inline BeamFeatureInputs<S> beamFeatureInputs(const BeamContext<S>& b) {
 /// filter casts it (mount offset and yaw included): the host's discovery code computes the
 /// features from a posterior pose with this. v, w: the robot's speed and turn rate. Returns
 /// false when the beam hits no wall (or grazes it exactly).
-template <typename S, int MaxWalls, int MaxBeams>
-inline bool beamFeatureInputs(const SegmentMap<S, MaxWalls>& map, const LaserGeometry<S, MaxBeams>& laser, S x, S y,
+template <typename S, typename MapT, int MaxBeams>
+inline bool beamFeatureInputs(const MapT& map, const LaserGeometry<S, MaxBeams>& laser, S x, S y,
                               S theta, int i, S v, S w, BeamFeatureInputs<S>* out) {
   if (i < 0 || i >= laser.beams()) return false;
   const LaserConfig<S>& cfg = laser.config();

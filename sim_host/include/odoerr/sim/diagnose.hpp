@@ -25,6 +25,7 @@ struct DiagnoseOptions {
   std::string suggest_dir;        ///< write a C++ effect skeleton of the discovered features here ("" = none)
   double map_cell_m = 0.25;       ///< cell of the grid of residuals at the beams' hit points (m)
   bool map_exclude = true;        ///< beams ending in a region the map gets wrong leave the ranking
+  double map_index_cell_m = -1;   ///< grid cell of the map's ray-cast index (m; < 0 chosen, 0 none)
   int threads = 2;
   double cycle_m = 0.01;
   double k0_w = 1e-4;      ///< diff: initial K_w (m)

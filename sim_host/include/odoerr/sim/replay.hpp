@@ -22,6 +22,10 @@ struct ReplayOptions {
   double k0_w = 1e-4;       ///< diff: K_w (m)
   double k0_rho = 1e-3;     ///< sync: K_rho (m)
   double k0_theta = 1e-4;   ///< sync: K_theta (rad^2/m)
+  /// Beams fused per scan (0: all; else spread evenly, LaserGeometry's beam selection).
+  int beams_used = 0;
+  /// Grid cell of the map's index (m); < 0: chosen from the map's size, 0: no index.
+  double map_cell_m = -1;
 };
 
 struct ReplayParam {
