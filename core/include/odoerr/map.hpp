@@ -63,14 +63,16 @@ inline bool makeWallRec(const Segment<S>& w, WallRec<S>* out) {
 using MapIndex = std::uint16_t;
 constexpr int kMaxMapIndex = 65535;
 
-/// A uniform grid over [x0, x0 + nx cell) x [y0, y0 + ny cell). nx == 0: no grid.
+/// A uniform grid over [x0, x0 + nx cell) x [y0, y0 + ny cell). nx == 0: no grid. The
+/// walls lie at least one cell inside its edge; the tables add a fence (gridFence).
 template <typename S>
 struct GridSpec {
   S x0 = S(0), y0 = S(0), cell = S(1), inv_cell = S(1);
   int nx = 0, ny = 0;
 };
 
-/// The map's tables, not owned. cell_start has nx * ny + 1 entries.
+/// The map's tables, not owned. cell_start has nx * ny + 1 entries. With a grid, walls
+/// holds n_walls + 4 entries: the map's walls, then the grid's fence.
 template <typename S>
 struct MapTables {
   const WallRec<S>* walls = nullptr;
@@ -82,12 +84,19 @@ struct MapTables {
 
 namespace map_detail {
 
-/// The ray p + r u against one wall; keeps it in (best, best_rn/best_den) when it is hit at
-/// r > min_range and nearer than the best so far. Candidates are compared on numerators
-/// (r = rn / den): no division per wall.
+/// The nearest hit so far along a ray, as range = rn / den (den > 0), no division per wall.
+/// It starts at the ray's far end (max_range, no wall): a hit must be nearer than that.
 template <typename S>
-inline void testWall(const WallRec<S>& w, int index, S px, S py, S ux, S uy, S min_range, RayHit<S>* best,
-                     S* best_rn, S* best_den) {
+struct Nearest {
+  S rn;
+  S den = S(1);
+  int wall = -1;
+};
+
+/// The ray p + r u against one wall; takes it when it is hit at min_range < r and nearer
+/// than the nearest so far.
+template <typename S>
+inline void testWall(const WallRec<S>& w, int index, S px, S py, S ux, S uy, S min_range, Nearest<S>* best) {
   // Solve p + r u = a + t e.  denom = u x e
   S denom = ux * w.ey - uy * w.ex;
   if (denom == S(0)) return;  // parallel
@@ -101,11 +110,10 @@ inline void testWall(const WallRec<S>& w, int index, S px, S py, S ux, S uy, S m
     tn = -tn;
   }
   if (!(rn > min_range * denom) || tn < S(0) || tn > denom) return;
-  if (best->hit && rn * *best_den >= *best_rn * denom) return;  // not nearer
-  best->hit = true;
+  if (rn * best->den >= best->rn * denom) return;  // not nearer
   best->wall = index;
-  *best_rn = rn;
-  *best_den = denom;
+  best->rn = rn;
+  best->den = denom;
 }
 
 /// Entry distance of the ray into [lo, hi] along one axis, and exit; false when the ray
@@ -127,84 +135,130 @@ inline bool slab(S p, S u, S lo, S hi, S* t_in, S* t_out) {
 
 }  // namespace map_detail
 
+namespace map_detail {
+
+/// The hit's range, normal and incidence once the nearest wall is known.
+template <typename S>
+inline RayHit<S> finishHit(const WallRec<S>* walls, const Nearest<S>& best, S ux, S uy) {
+  RayHit<S> hit;
+  if (best.wall < 0) return hit;
+  const WallRec<S>& wr = walls[best.wall];
+  hit.hit = true;
+  hit.wall = best.wall;
+  hit.range = best.rn / best.den;
+  hit.nx = wr.nx;
+  hit.ny = wr.ny;
+  hit.n_dot_u = wr.nx * ux + wr.ny * uy;
+  return hit;
+}
+
+}  // namespace map_detail
+
 /// Nearest intersection of the ray p + r u (u a unit vector), min_range < r <= max_range,
-/// with the walls of `m`.
+/// with every one of n walls (small maps: no index).
+template <typename S>
+inline RayHit<S> castEveryWall(const WallRec<S>* walls, int n, S px, S py, S ux, S uy, S min_range, S max_range) {
+  map_detail::Nearest<S> best{max_range};
+  for (int i = 0; i < n; ++i) map_detail::testWall(walls[i], i, px, py, ux, uy, min_range, &best);
+  return map_detail::finishHit(walls, best, ux, uy);
+}
+
+namespace map_detail {
+
+/// The grid walk of castGrid. kFenced: the ray starts inside the fence, which it must hit
+/// if nothing else, so the walk needs no other end; otherwise it ends at `far`, short of
+/// the grid's edge, and ignores the fence.
+template <typename S, bool kFenced>
+RayHit<S> walkGrid(const MapTables<S>& m, S px, S py, S ux, S uy, S min_range, S far, S t0) {
+  const GridSpec<S>& g = m.grid;
+  Nearest<S> best{far};
+  int ix = static_cast<int>((px + t0 * ux - g.x0) * g.inv_cell);
+  int iy = static_cast<int>((py + t0 * uy - g.y0) * g.inv_cell);
+  ix = ix < 0 ? 0 : (ix >= g.nx ? g.nx - 1 : ix);
+  iy = iy < 0 ? 0 : (iy >= g.ny ? g.ny - 1 : iy);
+  // Distances along the ray to the next vertical / horizontal cell border, and between
+  // borders (infinite along an axis the ray does not move on).
+  const S big = S(1e30);
+  S t_max_x = big;
+  S t_max_y = big;
+  S dt_x = big;
+  S dt_y = big;
+  if (ux != S(0)) {
+    const S inv = S(1) / ux;
+    t_max_x = (g.x0 + S(ix + (ux > S(0) ? 1 : 0)) * g.cell - px) * inv;
+    dt_x = g.cell * (inv < S(0) ? -inv : inv);
+  }
+  if (uy != S(0)) {
+    const S inv = S(1) / uy;
+    t_max_y = (g.y0 + S(iy + (uy > S(0) ? 1 : 0)) * g.cell - py) * inv;
+    dt_y = g.cell * (inv < S(0) ? -inv : inv);
+  }
+  const int step_x = ux > S(0) ? 1 : -1;
+  const int step_y = uy > S(0) ? g.nx : -g.nx;
+  int c = iy * g.nx + ix;
+  for (;;) {
+    const int end = m.cell_start[c + 1];
+    for (int k = m.cell_start[c]; k < end; ++k) {
+      const int i = m.cell_items[k];
+      if (!kFenced && i >= m.n_walls) continue;
+      testWall(m.walls[i], i, px, py, ux, uy, min_range, &best);
+    }
+    // The nearest hit so far (or the far end) lies in this cell or before it: no later
+    // cell can hold a nearer one (every wall is listed in every cell it touches).
+    if (t_max_x < t_max_y) {
+      if (best.rn <= t_max_x * best.den) break;
+      c += step_x;
+      t_max_x += dt_x;
+    } else {
+      if (best.rn <= t_max_y * best.den) break;
+      c += step_y;
+      t_max_y += dt_y;
+    }
+  }
+  if (best.wall >= m.n_walls) best.wall = -1;  // the fence: nothing within range
+  return finishHit(m.walls, best, ux, uy);
+}
+
+}  // namespace map_detail
+
+/// The fence of a grid: four walls along the middle of its margin cells, which every ray
+/// starting inside them hits (if nothing nearer), so that the walk needs no bounds test.
+/// The grid's tables hold them after the map's own walls (indices n_walls .. n_walls + 3).
+template <typename S>
+inline void gridFence(const GridSpec<S>& g, WallRec<S> fence[4]) {
+  const S h = S(0.5) * g.cell;
+  const S x0 = g.x0 + h, y0 = g.y0 + h, x1 = g.x0 + S(g.nx) * g.cell - h, y1 = g.y0 + S(g.ny) * g.cell - h;
+  const Segment<S> sides[4] = {{x0, y0, x1, y0}, {x1, y0, x1, y1}, {x1, y1, x0, y1}, {x0, y1, x0, y0}};
+  for (int k = 0; k < 4; ++k) (void)makeWallRec(sides[k], &fence[k]);
+}
+
+/// The same through the grid index of `m` (m.grid.nx > 0): the ray walks the cells.
+template <typename S>
+RayHit<S> castGrid(const MapTables<S>& m, S px, S py, S ux, S uy, S min_range, S max_range) {
+  const GridSpec<S>& g = m.grid;
+  const S h = S(0.5) * g.cell;
+  const S x1 = g.x0 + S(g.nx) * g.cell, y1 = g.y0 + S(g.ny) * g.cell;
+  if (px > g.x0 + h && px < x1 - h && py > g.y0 + h && py < y1 - h) {
+    return map_detail::walkGrid<S, true>(m, px, py, ux, uy, min_range, max_range, S(0));
+  }
+  // Outside the fence (a robot off its map): clip the ray to the grid's box, entering at
+  // t0 and leaving at t1, and end the walk half a cell before it leaves (the margin holds
+  // no wall of the map).
+  S t0 = S(0);
+  S t1 = max_range;
+  if (!map_detail::slab(px, ux, g.x0, x1, &t0, &t1) || !map_detail::slab(py, uy, g.y0, y1, &t0, &t1)) {
+    return RayHit<S>{};
+  }
+  const S far = t1 < max_range ? t1 - h : max_range;
+  return map_detail::walkGrid<S, false>(m, px, py, ux, uy, min_range, far, t0);
+}
+
+/// Nearest intersection of the ray p + r u (u a unit vector), min_range < r <= max_range,
+/// with the walls of `m` (through its grid when it has one).
 template <typename S>
 inline RayHit<S> castTables(const MapTables<S>& m, S px, S py, S ux, S uy, S min_range, S max_range) {
-  RayHit<S> best;
-  S best_rn = S(0);
-  S best_den = S(1);
-  const GridSpec<S>& g = m.grid;
-  if (g.nx == 0) {
-    for (int i = 0; i < m.n_walls; ++i) map_detail::testWall(m.walls[i], i, px, py, ux, uy, min_range, &best, &best_rn, &best_den);
-  } else {
-    // Clip the ray to the grid's box; t0 is where it enters (0 inside).
-    const S w = g.cell * S(g.nx);
-    const S h = g.cell * S(g.ny);
-    S t0 = S(0);
-    S t1 = max_range;
-    if (!map_detail::slab(px, ux, g.x0, g.x0 + w, &t0, &t1) || !map_detail::slab(py, uy, g.y0, g.y0 + h, &t0, &t1)) {
-      return best;
-    }
-    const S ex = px + t0 * ux - g.x0;
-    const S ey = py + t0 * uy - g.y0;
-    int ix = static_cast<int>(ex * g.inv_cell);
-    int iy = static_cast<int>(ey * g.inv_cell);
-    ix = ix < 0 ? 0 : (ix >= g.nx ? g.nx - 1 : ix);
-    iy = iy < 0 ? 0 : (iy >= g.ny ? g.ny - 1 : iy);
-    // Distances along the ray to the next vertical / horizontal cell border, and between
-    // borders (infinite along an axis the ray does not move on).
-    const int step_x = ux > S(0) ? 1 : -1;
-    const int step_y = uy > S(0) ? 1 : -1;
-    const S big = S(1e30);
-    S t_max_x = big;
-    S t_max_y = big;
-    S dt_x = big;
-    S dt_y = big;
-    if (ux != S(0)) {
-      const S inv = S(1) / ux;
-      const S border = g.x0 + S(ix + (ux > S(0) ? 1 : 0)) * g.cell;
-      t_max_x = (border - px) * inv;
-      dt_x = g.cell * (inv < S(0) ? -inv : inv);
-    }
-    if (uy != S(0)) {
-      const S inv = S(1) / uy;
-      const S border = g.y0 + S(iy + (uy > S(0) ? 1 : 0)) * g.cell;
-      t_max_y = (border - py) * inv;
-      dt_y = g.cell * (inv < S(0) ? -inv : inv);
-    }
-    for (;;) {
-      const int c = iy * g.nx + ix;
-      const int end = m.cell_start[c + 1];
-      for (int k = m.cell_start[c]; k < end; ++k) {
-        const int i = m.cell_items[k];
-        map_detail::testWall(m.walls[i], i, px, py, ux, uy, min_range, &best, &best_rn, &best_den);
-      }
-      // The nearest hit so far lies in this cell or before it: no later cell can hold a
-      // nearer one (every wall is listed in every cell it touches).
-      const S t_exit = t_max_x < t_max_y ? t_max_x : t_max_y;
-      if (best.hit && best_rn <= t_exit * best_den) break;
-      if (t_exit > t1) break;
-      if (t_max_x < t_max_y) {
-        ix += step_x;
-        if (ix < 0 || ix >= g.nx) break;
-        t_max_x += dt_x;
-      } else {
-        iy += step_y;
-        if (iy < 0 || iy >= g.ny) break;
-        t_max_y += dt_y;
-      }
-    }
-  }
-  if (best.hit) {
-    const WallRec<S>& wr = m.walls[best.wall];
-    best.range = best_rn / best_den;
-    if (best.range > max_range) return RayHit<S>{};
-    best.nx = wr.nx;
-    best.ny = wr.ny;
-    best.n_dot_u = wr.nx * ux + wr.ny * uy;
-  }
-  return best;
+  if (m.grid.nx == 0) return castEveryWall(m.walls, m.n_walls, px, py, ux, uy, min_range, max_range);
+  return castGrid(m, px, py, ux, uy, min_range, max_range);
 }
 
 /// Whether wall w touches the closed cell [cx0, cx0 + cell] x [cy0, cy0 + cell] (grown by
@@ -346,9 +400,9 @@ class SegmentMap {
   SegmentMap() = default;
   SegmentMap(const SegmentMap& o) { *this = o; }
   SegmentMap& operator=(const SegmentMap& o) {
-    for (int i = 0; i < o.count_; ++i) walls_[i] = o.walls_[i];
     count_ = o.count_;
     grid_ = o.grid_;
+    for (int i = 0; i < count_ + (grid_.nx > 0 ? 4 : 0); ++i) walls_[i] = o.walls_[i];
     if (grid_.nx > 0) {
       const int cells = grid_.nx * grid_.ny;
       for (int c = 0; c <= cells; ++c) start_[c] = o.start_[c];
@@ -377,8 +431,9 @@ class SegmentMap {
       GridSpec<S> g;
       IndexStatus st = gridFor(walls_, count_, cell, MaxCells - 1, &g);
       if (st != IndexStatus::kOk) return st;
+      gridFence(g, walls_ + count_);
       int used = 0;
-      st = fillGrid(walls_, count_, g, start_, items_, MaxItems, &used);
+      st = fillGrid(walls_, count_ + 4, g, start_, items_, MaxItems, &used);
       if (st != IndexStatus::kOk) return st;
       grid_ = g;
       return IndexStatus::kOk;
@@ -396,13 +451,17 @@ class SegmentMap {
     return castDir(px, py, std::cos(angle), std::sin(angle), min_range);
   }
   RayHit<S> castDir(S px, S py, S ux, S uy, S min_range = S(1e-6), S max_range = S(1e30)) const {
-    return castTables(tables(), px, py, ux, uy, min_range, max_range);
+    if constexpr (MaxCells == 0) {
+      return castEveryWall(walls_, count_, px, py, ux, uy, min_range, max_range);
+    } else {
+      return castTables(tables(), px, py, ux, uy, min_range, max_range);
+    }
   }
 
  private:
   static constexpr int kCells = MaxCells > 0 ? MaxCells : 1;
   static constexpr int kItems = MaxItems > 0 ? MaxItems : 1;
-  WallRec<S> walls_[MaxWalls]{};
+  WallRec<S> walls_[MaxWalls + 4]{};  // + the grid's fence
   int count_ = 0;
   GridSpec<S> grid_{};
   MapIndex start_[kCells]{};

@@ -33,7 +33,7 @@ class HostMap {
     start_.clear();
     items_.clear();
     grid_ = GridSpec<S>{};
-    if (walls.size() > std::size_t(kMaxMapIndex)) {
+    if (walls.size() + 4 > std::size_t(kMaxMapIndex)) {
       *error = "the map has " + std::to_string(walls.size()) + " walls; at most " + std::to_string(kMaxMapIndex);
       return false;
     }
@@ -57,8 +57,11 @@ class HostMap {
       }
       start_.assign(std::size_t(g.nx) * std::size_t(g.ny) + 1, 0);
       items_.assign(kMaxMapIndex, 0);
+      const int n = int(walls_.size());
+      walls_.resize(walls_.size() + 4);
+      gridFence(g, walls_.data() + n);
       int used = 0;
-      if (fillGrid(walls_.data(), int(walls_.size()), g, start_.data(), items_.data(), kMaxMapIndex, &used) !=
+      if (fillGrid(walls_.data(), n + 4, g, start_.data(), items_.data(), kMaxMapIndex, &used) !=
           IndexStatus::kOk) {
         *error = "the grid index of " + std::to_string(cell_m) + " m cells has more than " +
                  std::to_string(kMaxMapIndex) + " entries; use larger cells";
@@ -71,11 +74,13 @@ class HostMap {
   }
 
   MapView<S> view() const {
-    return MapView<S>(MapTables<S>{walls_.data(), int(walls_.size()), grid_, start_.empty() ? nullptr : start_.data(),
+    return MapView<S>(MapTables<S>{walls_.data(), size(), grid_, start_.empty() ? nullptr : start_.data(),
                                    items_.empty() ? nullptr : items_.data()});
   }
-  int size() const { return int(walls_.size()); }
+  /// The map's walls (the fence not counted).
+  int size() const { return int(walls_.size()) - (grid_.nx > 0 ? 4 : 0); }
   const GridSpec<S>& grid() const { return grid_; }
+  /// The map's walls, then the grid's fence (4 walls) when there is a grid.
   const std::vector<WallRec<S>>& walls() const { return walls_; }
   const std::vector<MapIndex>& cellStart() const { return start_; }
   const std::vector<MapIndex>& cellItems() const { return items_; }
