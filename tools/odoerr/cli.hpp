@@ -47,6 +47,16 @@ class ProgressBar {
   int last_quarter_ = -1;
 };
 
+/// The subcommand `name` of app (a family such as `map`, shared by several files),
+/// created with `description` when no file has created it yet.
+inline CLI::App* family(CLI::App& app, const std::string& name, const std::string& description) {
+  const auto found = app.get_subcommands([&name](CLI::App* a) { return a->get_name() == name; });
+  if (!found.empty()) return found.front();
+  CLI::App* sub = app.add_subcommand(name, description);
+  sub->require_subcommand(1);
+  return sub;
+}
+
 /// Subcommands registered by their own files. A registration adds its subcommand to the
 /// app and returns the function that runs it once parsed (its exit status).
 class Commands {

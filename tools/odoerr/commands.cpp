@@ -3,8 +3,8 @@
 namespace odoerr {
 
 void registerCommands(CLI::App& app, cli::Commands& cmds) {
-  (void)app;
-  (void)cmds;
+  registerSimCommands(app, cmds);
+  registerMapCompileCommand(app, cmds);
 }
 
 }  // namespace odoerr

@@ -9,4 +9,9 @@ namespace odoerr {
 /// Every family below, in the order `odoerr --help` lists them.
 void registerCommands(CLI::App& app, cli::Commands& cmds);
 
+/// sim, tape, hal-tape (cmd_sim.cpp).
+void registerSimCommands(CLI::App& app, cli::Commands& cmds);
+/// map compile (cmd_map_compile.cpp).
+void registerMapCompileCommand(CLI::App& app, cli::Commands& cmds);
+
 }  // namespace odoerr

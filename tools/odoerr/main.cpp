@@ -24,6 +24,7 @@
 #include "odoerr/sim/hal_sim.hpp"
 #include "odoerr/sim/odolog.hpp"
 #include "odoerr/sim/odolog_writer.hpp"
+#include "odoerr/sim/map_io.hpp"
 #include "odoerr/sim/replay.hpp"
 #include "odoerr/sim/paper_experiment.hpp"
 
@@ -42,11 +43,12 @@ using cli::writeFile;
 std::string plotScript() { return cli::scriptPath("ODOERR_PLOT_SCRIPT", ODOERR_PLOT_SCRIPT); }
 std::string reportScript() { return cli::scriptPath("ODOERR_REPORT_SCRIPT", ODOERR_REPORT_SCRIPT); }
 
-int runDiagnose(const std::string& log_path, const std::string& json_path, DiagnoseOptions opt, bool quiet) {
+int runDiagnose(const std::string& log_path, const std::string& json_path, DiagnoseOptions opt, bool quiet,
+                const std::string& map_path = "") {
   const char* who = quiet ? "odoerr report" : "odoerr diagnose";
   Odolog log;
   std::string err;
-  if (!readOdolog(log_path, &log, &err)) {
+  if (!readOdolog(log_path, &log, &err) || (!map_path.empty() && !readMapWalls(map_path, &log.walls, &err))) {
     std::fprintf(stderr, "%s: %s\n", who, err.c_str());
     return 1;
   }
@@ -124,129 +126,6 @@ int runPaper(const std::string& drive, int runs, const std::string& out, std::ui
   return 0;
 }
 
-template <template <typename> class DriveT>
-int writeSimLog(const std::string& out, std::uint64_t seed, int steps, const std::string& start) {
-  SimConfig cfg;
-  cfg.steps = steps;
-  FilterSetup setup;
-  PaperSim<DriveT<double>> header_sim(cfg, seed);  // same seed: same initial draw as the run
-  std::string text = odologHeader(header_sim, seed, setup.sigma_pose_xy, setup.sigma_pose_theta);
-  const int beams = cfg.laser.beams;
-  StepSink<DriveT<double>> sink = [&text, beams](const SimStep<DriveT<double>>& st) {
-    appendOdologStep(text, st, beams);
-  };
-  (void)runDrive<double, DriveT>(cfg, seed, start == "large" ? NonSysStart::kLarge : NonSysStart::kSmall,
-                                 setup, steps, sink);
-  std::string err;
-  const fs::path path(out);
-  if (path.has_parent_path()) {
-    std::error_code ec;
-    fs::create_directories(path.parent_path(), ec);
-  }
-  if (!writeFile(path, text, &err)) {
-    std::fprintf(stderr, "odoerr sim: %s\n", err.c_str());
-    return 1;
-  }
-  std::fprintf(stderr, "odoerr sim: wrote %d cycles to %s\n", steps, out.c_str());
-  return 0;
-}
-
-/// Records one closed-loop drive as a core-replay tape (firmware/include/odoerr/fw/tape.hpp).
-template <template <typename> class DriveT>
-int writeTape(const std::string& out, std::uint64_t seed, int steps, int record_every) {
-  SimConfig cfg;
-  cfg.steps = steps;
-  FilterSetup setup;
-  PaperSim<DriveT<double>> sim(cfg, seed);
-  fw::TapeHeader h;
-  h.drive = PaperSim<DriveT<double>>::kSync ? 0 : 1;
-  h.cycles = static_cast<std::uint32_t>(steps);
-  h.beams = static_cast<std::uint32_t>(cfg.laser.beams);
-  h.x0 = float(sim.initialEstimate().x);
-  h.y0 = float(sim.initialEstimate().y);
-  h.theta0 = float(sim.initialEstimate().theta);
-  const typename DriveT<double>::NonSysVec k0 = sim.trueNonSys() * setup.nonsys_factor_small;
-  for (int i = 0; i < k0.size(); ++i) h.k0[i] = float(k0[i]);
-  h.record_every = static_cast<std::uint32_t>(record_every);
-  std::string bytes(fw::kTapeHeaderBytes, '\0');
-  fw::encodeHeader(h, reinterpret_cast<std::uint8_t*>(bytes.data()));
-  StepSink<DriveT<double>> sink = [&bytes, &cfg](const SimStep<DriveT<double>>& st) {
-    std::uint8_t b[4 * (2 + kMaxBeams)];
-    const auto& [a, bb] = st.input;  // channels A and B
-    fw::putF32(b, float(a));
-    fw::putF32(b + 4, float(bb));
-    for (int i = 0; i < cfg.laser.beams; ++i) fw::putF32(b + 8 + 4 * i, float(st.ranges[i]));
-    bytes.append(reinterpret_cast<const char*>(b), 4 * (2 + cfg.laser.beams));
-  };
-  (void)runDrive<double, DriveT>(cfg, seed, NonSysStart::kSmall, setup, steps, sink);
-  std::string err;
-  if (!writeFile(out, bytes, &err)) {
-    std::fprintf(stderr, "odoerr tape: %s\n", err.c_str());
-    return 1;
-  }
-  std::fprintf(stderr, "odoerr tape: wrote %d cycles to %s\n", steps, out.c_str());
-  return 0;
-}
-
-/// Records what the HAL devices show the firmware at each 1 ms poll of a simulated drive
-/// (counters, laser bytes), for the firmware image's replay (firmware/apps/fw_replay).
-template <template <typename> class DriveT>
-int writeHalTape(const std::string& out, std::uint64_t seed, int steps, double corrupt) {
-  using D = DriveT<double>;
-  SimConfig cfg;
-  cfg.radius = 4.5;  // clear of the walls (see tests/test_firmware_app.cpp)
-  typename HalSimDrive<D>::Options opt;
-  opt.faults.corrupt_probability = corrupt;
-  HalSimDrive<D> world(cfg, seed, opt);
-  FilterSetup setup;
-  fw::HalTapeHeader h;
-  h.drive = PaperSim<D>::kSync ? 0 : 1;
-  h.counter_bits = opt.counter_bits;
-  h.ticks_a = float(world.sim().ticksA());
-  h.ticks_b = float(world.sim().ticksB());
-  h.x0 = float(world.sim().initialEstimate().x);
-  h.y0 = float(world.sim().initialEstimate().y);
-  h.theta0 = float(world.sim().initialEstimate().theta);
-  // The firmware starts from a calibrated K (as after restoring its stored calibration);
-  // the paper's OF from 100x below is exercised by the paper experiment instead.
-  const typename D::NonSysVec k0 = world.sim().trueNonSys();
-  for (int i = 0; i < k0.size(); ++i) h.k0[i] = float(k0[i]);
-  h.baud = opt.baud;
-  std::string bytes(fw::kHalTapeHeaderBytes, '\0');
-  std::uint32_t polls = 0;
-  const std::uint64_t end_us = std::uint64_t(steps) * opt.step_us;
-  for (std::uint64_t t = 0; t <= end_us; t += 1000) {
-    world.advanceTo(t);
-    std::uint32_t ra = 0;
-    std::uint32_t rb = 0;
-    (void)world.encoderA().read(&ra);
-    (void)world.encoderB().read(&rb);
-    std::uint8_t serial[1024];
-    std::size_t n = 0;
-    (void)world.laserPort().read(serial, sizeof serial, &n);
-    std::uint8_t rec[fw::kHalTapePollBytes];
-    fw::putU32(rec, static_cast<std::uint32_t>(t));
-    fw::putU32(rec + 4, static_cast<std::uint32_t>(t >> 32));
-    fw::putU32(rec + 8, ra);
-    fw::putU32(rec + 12, rb);
-    rec[16] = static_cast<std::uint8_t>(n);
-    rec[17] = static_cast<std::uint8_t>(n >> 8);
-    bytes.append(reinterpret_cast<const char*>(rec), sizeof rec);
-    bytes.append(reinterpret_cast<const char*>(serial), n);
-    ++polls;
-  }
-  h.polls = polls;
-  fw::encodeHalTapeHeader(h, reinterpret_cast<std::uint8_t*>(bytes.data()));
-  std::string err;
-  if (!writeFile(out, bytes, &err)) {
-    std::fprintf(stderr, "odoerr hal-tape: %s\n", err.c_str());
-    return 1;
-  }
-  std::fprintf(stderr, "odoerr hal-tape: wrote %u polls (%d cycles of travel) to %s\n", polls, steps,
-               out.c_str());
-  return 0;
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -274,28 +153,6 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"expected", "literal"}));
   paper->add_flag("--no-plots", no_plots, "skip the PNG figures");
 
-  auto* sim = app.add_subcommand("sim", "simulate one closed-loop drive and write it as odolog v1");
-  std::string sim_drive = "sync";
-  std::string sim_out;
-  std::uint64_t sim_seed = 1;
-  int steps = 3000;
-  std::string start = "small";
-  sim->add_option("--drive", sim_drive, "sync or diff")->check(CLI::IsMember({"sync", "diff"}));
-  sim->add_option("--out", sim_out, "odolog file to write")->required();
-  sim->add_option("--seed", sim_seed, "random seed (the same seed as run r of `paper` when seed+r)");
-  sim->add_option("--steps", steps, "cycles (1 cm each)")->check(CLI::Range(1, 10000000));
-  sim->add_option("--start", start, "initial non-systematic estimate: small or large")
-      ->check(CLI::IsMember({"small", "large"}));
-  std::string scenario = "paper";
-  std::vector<std::string> sim_effects;
-  double minutes = 4.0;
-  sim->add_option("--scenario", scenario,
-                  "paper (the Section 5 circle) or excite (figure-eights at three speeds, reversals; "
-                  "implied by --effect)")
-      ->check(CLI::IsMember({"paper", "excite"}));
-  sim->add_option("--effect", sim_effects, "inject a catalogue effect: NAME=V1[,V2...] (repeatable)");
-  sim->add_option("--minutes", minutes, "length of an excite drive")->check(CLI::Range(0.05, 600.0));
-
   auto* diag = app.add_subcommand("diagnose", "does the model explain the measurements; which effect is missing");
   std::string dg_log, dg_json;
   DiagnoseOptions dg;
@@ -306,6 +163,8 @@ int main(int argc, char** argv) {
                    "feature:NAME@TARGET or feature:BEAM_FEATURE (the feature effects), or auto")
       ->delimiter(',');
   diag->add_option("--out", dg.out_dir, "also write scans.csv, beams.csv, trajectory.csv (and heldout_*.csv) here");
+  std::string dg_map;
+  diag->add_option("--map", dg_map, "the map to use instead of the log's walls (.odomap, or an odolog's walls)");
   diag->add_option("--map-cell", dg.map_cell_m, "grid cell of the residuals at the beams' hit points (m)")
       ->check(CLI::Range(0.02, 5.0));
   std::string map_beams = "exclude";
@@ -327,31 +186,6 @@ int main(int argc, char** argv) {
   report->add_option("--out", rp2_out, "output directory (report.html and its data)")->required();
   report->add_option("--with", rp2_with, "effects to add and compare on held-out data")->delimiter(',');
 
-  auto* tape = app.add_subcommand("tape", "record one closed-loop drive as a core-replay tape (firmware tests)");
-  std::string tape_drive = "diff";
-  std::string tape_out;
-  std::uint64_t tape_seed = 1;
-  int tape_steps = 3000;
-  int tape_every = 100;
-  tape->add_option("--drive", tape_drive, "sync or diff")->check(CLI::IsMember({"sync", "diff"}));
-  tape->add_option("--out", tape_out, "tape file to write")->required();
-  tape->add_option("--seed", tape_seed, "random seed");
-  tape->add_option("--steps", tape_steps, "cycles (1 cm each)")->check(CLI::Range(1, 10000000));
-  tape->add_option("--record-every", tape_every, "replay output interval (cycles)")->check(CLI::Range(1, 1000000));
-
-  auto* haltape = app.add_subcommand("hal-tape", "record the HAL devices of a simulated drive (firmware image tests)");
-  std::string ht_drive = "diff";
-  std::string ht_out;
-  std::uint64_t ht_seed = 1;
-  int ht_steps = 3000;
-  double ht_corrupt = 0.0;
-  haltape->add_option("--drive", ht_drive, "sync or diff")->check(CLI::IsMember({"sync", "diff"}));
-  haltape->add_option("--out", ht_out, "tape file to write")->required();
-  haltape->add_option("--seed", ht_seed, "random seed");
-  haltape->add_option("--steps", ht_steps, "cm of travel")->check(CLI::Range(1, 1000000));
-  haltape->add_option("--corrupt", ht_corrupt, "probability that a laser byte is corrupted")
-      ->check(CLI::Range(0.0, 1.0));
-
   auto* replay = app.add_subcommand("replay", "run the estimator over an odolog drive");
   std::string rp_log;
   std::string rp_out;
@@ -359,6 +193,13 @@ int main(int argc, char** argv) {
   replay->add_option("--out", rp_out, "output directory")->required();
   double rp_cycle = 0.01;
   replay->add_option("--cycle-m", rp_cycle, "encoder travel per filter cycle (m)")->check(CLI::PositiveNumber);
+  std::string rp_map;
+  int rp_beams = 0;
+  double rp_map_cell = -1;
+  replay->add_option("--map", rp_map, "the map to use instead of the log's walls (.odomap, or an odolog's walls)");
+  replay->add_option("--beams-used", rp_beams, "beams fused per scan, spread evenly (0: all)")->check(CLI::Range(0, 4095));
+  replay->add_option("--map-index-cell", rp_map_cell, "grid cell of the map's ray-cast index (m; 0: none)")
+      ->check(CLI::Range(0.0, 100.0));
 
   cli::Commands commands;
   registerCommands(app, commands);
@@ -381,9 +222,15 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "odoerr replay: %s\n", err.c_str());
       return 1;
     }
+    if (!rp_map.empty() && !readMapWalls(rp_map, &log.walls, &err)) {
+      std::fprintf(stderr, "odoerr replay: %s\n", err.c_str());
+      return 1;
+    }
     ReplayOptions ro;
     ro.out_dir = rp_out;
     ro.cycle_m = rp_cycle;
+    ro.beams_used = rp_beams;
+    ro.map_cell_m = rp_map_cell;
     ReplaySummary sum;
     if (!replayOdolog(log, ro, &sum, &err)) {
       std::fprintf(stderr, "odoerr replay: %s\n", err.c_str());
@@ -396,17 +243,9 @@ int main(int argc, char** argv) {
     for (const auto& p : sum.params) std::printf("%-10s %.6g +- %.3g\n", p.name.c_str(), p.value, p.sigma);
     return 0;
   }
-  if (haltape->parsed()) {
-    return ht_drive == "sync" ? writeHalTape<SyncDrive>(ht_out, ht_seed, ht_steps, ht_corrupt)
-                              : writeHalTape<DiffDrive>(ht_out, ht_seed, ht_steps, ht_corrupt);
-  }
-  if (tape->parsed()) {
-    return tape_drive == "sync" ? writeTape<SyncDrive>(tape_out, tape_seed, tape_steps, tape_every)
-                                : writeTape<DiffDrive>(tape_out, tape_seed, tape_steps, tape_every);
-  }
   if (diag->parsed()) {
     dg.map_exclude = map_beams == "exclude";
-    return runDiagnose(dg_log, dg_json, dg, false);
+    return runDiagnose(dg_log, dg_json, dg, false, dg_map);
   }
   if (report->parsed()) {
     DiagnoseOptions rp;
@@ -421,30 +260,6 @@ int main(int argc, char** argv) {
     }
     std::fprintf(stderr, "odoerr report: wrote %s/report.html\n", rp2_out.c_str());
     return 0;
-  }
-  if (sim->parsed() && (scenario == "excite" || !sim_effects.empty())) {
-    EffectSimConfig ec;
-    ec.drive = sim_drive;
-    ec.seed = sim_seed;
-    ec.minutes = minutes;
-    std::string err;
-    for (const auto& e : sim_effects) {
-      if (!parseEffectArg(e, &ec, &err)) {
-        std::fprintf(stderr, "odoerr sim: %s\n", err.c_str());
-        return 2;
-      }
-    }
-    std::string text;
-    if (!simulateEffectDrive(ec, &text, &err) || !writeFile(sim_out, text, &err)) {
-      std::fprintf(stderr, "odoerr sim: %s\n", err.c_str());
-      return 1;
-    }
-    std::fprintf(stderr, "odoerr sim: wrote a %.1f-minute %s drive to %s\n", minutes, sim_drive.c_str(), sim_out.c_str());
-    return 0;
-  }
-  if (sim->parsed()) {
-    return sim_drive == "sync" ? writeSimLog<SyncDrive>(sim_out, sim_seed, steps, start)
-                               : writeSimLog<DiffDrive>(sim_out, sim_seed, steps, start);
   }
   return 2;
 }
