@@ -40,6 +40,65 @@ def tape_with_cycles(src, dst, cycles, dry=False):
     open(dst, "wb").write(data)
 
 
+def cycle_cost(qemu, plugin, elf, tape, workdir, n1=1000, n2=2000):
+    """Guest instructions of one cycle of `elf` on `tape`: (I(n2) - I(n1)) / (n2 - n1) minus
+    the same difference of a dry run (the harness)."""
+    counts = {}
+    for n, dry in ((n1, False), (n2, False), (n1, True), (n2, True)):
+        d = os.path.join(workdir, f"{n}{'-dry' if dry else ''}")
+        os.makedirs(d)
+        tape_with_cycles(tape, os.path.join(d, "tape.bin"), n, dry)
+        counts[(n, dry)] = run_qemu(qemu, plugin, os.path.abspath(elf), d, os.path.join(d, "count.txt"))
+    harness = (counts[(n2, True)] - counts[(n1, True)]) / (n2 - n1)
+    return (counts[(n2, False)] - counts[(n1, False)]) / (n2 - n1) - harness, harness
+
+
+def symbol_sizes(nm, elf):
+    """Sizes of the map table's objects in the image (arm-none-eabi-nm -S -C)."""
+    out = subprocess.check_output([nm, "-S", "-C", elf]).decode()
+    sizes = {}
+    for line in out.splitlines():
+        parts = line.split()
+        if len(parts) >= 4 and parts[2] in "rRdDtT":
+            name = " ".join(parts[3:])
+            for key in ("kWalls", "kCellStart", "kCellItems", "kOdoerrMap"):
+                if name.endswith(key):
+                    sizes[key] = int(parts[1], 16)
+    return sizes
+
+
+def measure_map(qemu, plugin, nm, spec, workdir):
+    """One entry of footprint.json's "maps": NAME=ELF,TAPE."""
+    name, rest = spec.split("=", 1)
+    elf, tape = rest.split(",")
+    ipc, _ = cycle_cost(qemu, plugin, elf, tape, os.path.join(workdir, name))
+    sizes = symbol_sizes(nm, elf)
+    header = open(tape, "rb").read(20)
+    (word,) = struct.unpack_from("<I", header, 8)
+    (beams,) = struct.unpack_from("<I", header, 16)
+    used = (word >> 16) & 0xFFF
+    d = os.path.join(workdir, name + "-full")
+    os.makedirs(d)
+    shutil.copy(tape, os.path.join(d, "tape.bin"))
+    run_qemu(qemu, plugin, os.path.abspath(elf), d, os.path.join(d, "count.txt"))
+    data = open(os.path.join(d, "out.bin"), "rb").read()
+    off = data.rfind(struct.pack("<I", 0xFFFFFFFF))
+    fused, rejected = struct.unpack_from("<2I", data, off + 4)
+    cycles = struct.unpack_from("<I", open(tape, "rb").read(), 12)[0]
+    return {
+        "name": name,
+        # kWalls holds the map's walls, then the grid's fence (4 walls) when there is a grid.
+        "segments": sizes.get("kWalls", 0) // 24 - (4 if "kCellStart" in sizes else 0),
+        "beams_per_scan": beams,
+        "beams_used": used if used else beams,
+        "beams_fused_per_cycle": round(fused / cycles, 2),
+        "beams_rejected_per_cycle": round(rejected / cycles, 2),
+        "instructions_per_cycle": round(ipc),
+        "map_flash_bytes": sum(sizes.values()),
+        "image": os.path.basename(elf),
+    }
+
+
 def trailer(path):
     data = open(path, "rb").read()
     off = data.rfind(struct.pack("<I", 0xFFFFFFFF))
@@ -59,6 +118,8 @@ def main():
     ap.add_argument("--hal-tape", help="HAL tape for the firmware image")
     ap.add_argument("--out", required=True)
     ap.add_argument("--drive", default="diff")
+    ap.add_argument("--map", action="append", default=[], help="NAME=ELF,TAPE: a map image and its drive")
+    ap.add_argument("--nm-tool", default="arm-none-eabi-nm")
     ap.add_argument("qemu", nargs=argparse.REMAINDER, help="-- qemu command without -kernel")
     a = ap.parse_args()
     qemu = [x for x in a.qemu if x != "--"]
@@ -89,13 +150,8 @@ def main():
             fw_stats = {"stack": vals[0], "estimator": vals[1], "app": vals[2], "cycles": vals[3]}
         batch = None
         if a.batch_elf:
-            bc = {}
-            for n, dry in ((n1, False), (n2, False), (n1, True), (n2, True)):
-                d = os.path.join(tmp, f"batch-{n}{'-dry' if dry else ''}")
-                os.makedirs(d)
-                tape_with_cycles(a.tape, os.path.join(d, "tape.bin"), n, dry)
-                bc[(n, dry)] = run_qemu(qemu, a.plugin, os.path.abspath(a.batch_elf), d, os.path.join(d, "count.txt"))
-            batch = ((bc[(n2, False)] - bc[(n1, False)]) - (bc[(n2, True)] - bc[(n1, True)])) / (n2 - n1)
+            batch, _ = cycle_cost(qemu, a.plugin, a.batch_elf, a.tape, os.path.join(tmp, "batch"), n1, n2)
+        maps = [measure_map(qemu, a.plugin, a.nm_tool, spec, tmp) for spec in a.map]
         best = None
         for _ in range(5):
             t0 = time.perf_counter()
@@ -124,6 +180,7 @@ def main():
         "host_ns_per_cycle": round(best * 1e9 / cycles_total),
         # 100 cycles/s at 1 m/s; one instruction ~ one clock on the M4 (FPU ops single-cycle).
         "cpu_share_pct_at_1_m_per_s_168_MHz": round(ipc * 100 / 168e6 * 100, 2),
+        "maps": maps,
     }
     with open(a.out, "w") as f:
         json.dump(fp, f, indent=2)

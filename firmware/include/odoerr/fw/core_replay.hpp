@@ -7,23 +7,19 @@
 
 namespace odoerr::fw {
 
+/// Replays the tape's cycles through `est` (diff or sync as the estimator's model).
 /// Read(void*, n) -> bytes read; Write(const void*, n) -> bytes written.
 /// Returns 0 on success, a non-zero code naming the failure otherwise.
-template <template <typename> class DriveT, typename Read, typename Write>
-int replayTape(const TapeHeader& h, Read&& read, Write&& write, std::uint32_t (*stack_probe)()) {
-  using S = float;
-  using Est = typename PaperTypes<S, DriveT>::EstimatorT;
+template <int MaxTapeBeams, typename Est, typename Read, typename Write>
+int replayThrough(Est& est, const TapeHeader& h, Read&& read, Write&& write, std::uint32_t (*stack_probe)()) {
   using M = typename Est::Model;
+  using Drive = typename M::Drive;
   constexpr int N = M::kStates;
   constexpr int K = M::kNonSys;
-  typename DriveT<S>::NonSysVec k0;
-  for (int i = 0; i < K; ++i) k0[i] = h.k0[i];
-  FilterSetup setup;
-  Est est = makePaperEstimator<S, DriveT>(setup, Pose<double>{double(h.x0), double(h.y0), double(h.theta0)}, k0);
-
-  std::uint8_t buf[4 * (2 + 64)];
+  if (h.beams > std::uint32_t(MaxTapeBeams)) return 5;
+  std::uint8_t buf[4 * (2 + MaxTapeBeams)];
   const std::size_t cycle_bytes = 4 * (2 + h.beams);
-  float ranges[64];
+  float ranges[MaxTapeBeams];
   std::uint8_t rec[4 * (1 + 2 * N + 2 * K)];
   auto emit = [&](std::uint32_t cycle) {
     const auto& x = est.akf().state();
@@ -41,7 +37,7 @@ int replayTape(const TapeHeader& h, Read&& read, Write&& write, std::uint32_t (*
   };
   for (std::uint32_t c = 1; c <= h.cycles; ++c) {
     if (read(buf, cycle_bytes) != cycle_bytes) return 3;  // truncated tape
-    typename DriveT<S>::Input u;
+    typename Drive::Input u;
     u = {getF32(buf), getF32(buf + 4)};
     for (std::uint32_t i = 0; i < h.beams; ++i) ranges[i] = getF32(buf + 8 + 4 * i);
     if (!h.dry) {
@@ -61,6 +57,20 @@ int replayTape(const TapeHeader& h, Read&& read, Write&& write, std::uint32_t (*
   putU32(tail + 16, stack_probe != nullptr ? stack_probe() : 0u);
   putU32(tail + 20, static_cast<std::uint32_t>(sizeof(Est)));  // both filters' state
   return write(tail, sizeof tail) == sizeof tail ? 0 : 4;
+}
+
+/// The paper's estimator (its room and 36 beams) over a tape of the paper's drive.
+template <template <typename> class DriveT, typename Read, typename Write>
+int replayTape(const TapeHeader& h, Read&& read, Write&& write, std::uint32_t (*stack_probe)()) {
+  using S = float;
+  using Est = typename PaperTypes<S, DriveT>::EstimatorT;
+  using M = typename Est::Model;
+  constexpr int K = M::kNonSys;
+  typename DriveT<S>::NonSysVec k0;
+  for (int i = 0; i < K; ++i) k0[i] = h.k0[i];
+  FilterSetup setup;
+  Est est = makePaperEstimator<S, DriveT>(setup, Pose<double>{double(h.x0), double(h.y0), double(h.theta0)}, k0);
+  return replayThrough<64>(est, h, read, write, stack_probe);
 }
 
 }  // namespace odoerr::fw

@@ -32,26 +32,24 @@ struct PaperTypes {
   static constexpr bool kSync = std::is_same_v<DriveT<S>, SyncDrive<S>>;
 };
 
-/// Builds the estimator of the paper's experiment, initialised at `init` with the
-/// non-systematic estimate k0 (e.g. the truth times 0.01 or 100).
-template <typename S, template <typename> class DriveT>
-typename PaperTypes<S, DriveT>::EstimatorT makePaperEstimator(
-    const FilterSetup& setup, const Pose<double>& init,
-    const typename DriveT<S>::NonSysVec& k0) {
-  using T = PaperTypes<S, DriveT>;
-  using ModelT = typename T::ModelT;
-  using Est = typename T::EstimatorT;
-  DriveT<S> drive;
-  if constexpr (!T::kSync) drive.wheelbase = S(setup.wheelbase_m);
-  typename Est::MapT map;
-  const S r = S(setup.room_m);
-  const Segment<S> walls[4] = {{S(0), S(0), r, S(0)}, {r, S(0), r, r}, {r, r, S(0), r}, {S(0), r, S(0), S(0)}};
-  for (const auto& w : walls) (void)map.add(w);
+/// The laser set-up of `setup` in scalar S.
+template <typename S>
+LaserConfig<S> laserConfig(const FilterSetup& setup) {
   const auto& lc = setup.laser;
-  const LaserConfig<S> lcs{lc.beams, S(lc.angle_min), S(lc.angle_inc), S(lc.range_max),
-                           S(lc.sigma), S(lc.mount_x), S(lc.mount_y), S(lc.mount_yaw)};
-  typename Est::LaserT laser;
-  (void)laser.init(lcs);  // the paper's 36 beams always fit
+  return LaserConfig<S>{lc.beams, S(lc.angle_min), S(lc.angle_inc), S(lc.range_max),
+                        S(lc.sigma), S(lc.mount_x), S(lc.mount_y), S(lc.mount_yaw)};
+}
+
+/// Builds an estimator of `setup`'s priors and options on any map and laser, initialised at
+/// `init` with the non-systematic estimate k0.
+template <typename Est, template <typename> class DriveT>
+Est makeEstimatorOn(const FilterSetup& setup, const typename Est::MapT& map, const typename Est::LaserT& laser,
+                    const Pose<double>& init, const typename DriveT<typename Est::S>::NonSysVec& k0) {
+  using S = typename Est::S;
+  using ModelT = typename Est::Model;
+  constexpr bool kSync = std::is_same_v<DriveT<S>, SyncDrive<S>>;
+  DriveT<S> drive;
+  if constexpr (!kSync) drive.wheelbase = S(setup.wheelbase_m);
   const AkfConfig<S> ac{S(setup.akf.max_incidence_rad), S(setup.akf.gate_nis)};
   const OfConfig<S> oc{setup.of.window, setup.of.pose_term, S(setup.of.min_fraction_of_initial)};
   Est est(ModelT(drive), map, laser, ac, oc);
@@ -66,11 +64,27 @@ typename PaperTypes<S, DriveT>::EstimatorT makePaperEstimator(
   sig[PoseIdx::kX] = S(setup.sigma_pose_xy);
   sig[PoseIdx::kY] = S(setup.sigma_pose_xy);
   sig[PoseIdx::kTheta] = S(setup.sigma_pose_theta);
-  if constexpr (T::kSync) sig[ModelT::kDriveOffset + SyncDrive<S>::kETheta] = S(setup.sigma_e_theta);
+  if constexpr (kSync) sig[ModelT::kDriveOffset + SyncDrive<S>::kETheta] = S(setup.sigma_e_theta);
   typename Est::OfT::KMat pk0 = (k0 * S(setup.nonsys_rel_sigma)).cwiseAbs2().asDiagonal();
   typename ModelT::StateMat p0 = sig.cwiseAbs2().asDiagonal();
   est.init(x0, p0, k0, pk0);
   return est;
+}
+
+/// Builds the estimator of the paper's experiment (its room and laser), initialised at
+/// `init` with the non-systematic estimate k0 (e.g. the truth times 0.01 or 100).
+template <typename S, template <typename> class DriveT>
+typename PaperTypes<S, DriveT>::EstimatorT makePaperEstimator(
+    const FilterSetup& setup, const Pose<double>& init,
+    const typename DriveT<S>::NonSysVec& k0) {
+  using Est = typename PaperTypes<S, DriveT>::EstimatorT;
+  typename Est::MapT map;
+  const S r = S(setup.room_m);
+  const Segment<S> walls[4] = {{S(0), S(0), r, S(0)}, {r, S(0), r, r}, {r, r, S(0), r}, {S(0), r, S(0), S(0)}};
+  for (const auto& w : walls) (void)map.add(w);
+  typename Est::LaserT laser;
+  (void)laser.init(laserConfig<S>(setup));  // the paper's 36 beams always fit
+  return makeEstimatorOn<Est, DriveT>(setup, map, laser, init, k0);
 }
 
 }  // namespace odoerr::fw

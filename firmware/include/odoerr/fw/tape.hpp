@@ -2,9 +2,13 @@
 // host simulator writes and both the host and the Cortex-M4F images replay through the
 // same float estimator. Little-endian binary:
 //
-//   header  | "ODTP" | u32 version=1 | u32 drive (0 sync, 1 diff; bit 8: dry run) | u32 cycles | u32 beams |
+//   header  | "ODTP" | u32 version=2 | u32 drive word | u32 cycles | u32 beams |
 //           | f32 x0 | f32 y0 | f32 theta0 | f32 k0[2] | u32 record_every |
+//           | f32 laser angle_min | f32 angle_inc | f32 range_max | f32 sigma |  (laser frame = robot frame)
 //   cycle   | f32 input_a | f32 input_b | f32 range[beams]            (cycles times)
+//
+// The drive word: bits 0-7 the drive (0 sync, 1 diff), bit 8 a dry run, bits 16-27 the
+// beams the filter fuses per scan (0: all; see LaserGeometry's beam selection).
 //
 // Output of a replay ("ODOU"): one record every record_every cycles and after the last:
 //   | u32 cycle | f32 state[N] | f32 sigma[N] | f32 k[M] | f32 k_sigma[M] |
@@ -17,7 +21,7 @@
 
 namespace odoerr::fw {
 
-constexpr std::uint32_t kTapeVersion = 1;
+constexpr std::uint32_t kTapeVersion = 2;
 
 struct TapeHeader {
   std::uint32_t drive = 1;  ///< 0 sync, 1 diff
@@ -29,6 +33,10 @@ struct TapeHeader {
   /// Dry run (bit 8 of the drive word): decode the tape but skip the filter, so that the
   /// harness's own cost can be subtracted from instruction counts.
   bool dry = false;
+  /// Beams fused per scan (0: all of them).
+  std::uint32_t beams_used = 0;
+  /// The range finder (beams as above; mounted at the robot's origin, facing forward).
+  float angle_min = 0, angle_inc = 0, range_max = 0, sigma = 0;
 };
 
 /// Little-endian (de)serialisation byte by byte: no struct memcpy, no endian assumption.
@@ -52,12 +60,12 @@ inline float getF32(const std::uint8_t* p) {
   return f;
 }
 
-constexpr std::size_t kTapeHeaderBytes = 4 + 4 * 4 + 4 * 5 + 4;
+constexpr std::size_t kTapeHeaderBytes = 4 + 4 * 4 + 4 * 5 + 4 + 4 * 4;
 
 inline void encodeHeader(const TapeHeader& h, std::uint8_t* out) {
   std::memcpy(out, "ODTP", 4);
   putU32(out + 4, kTapeVersion);
-  putU32(out + 8, h.drive | (h.dry ? 0x100u : 0u));
+  putU32(out + 8, h.drive | (h.dry ? 0x100u : 0u) | ((h.beams_used & 0xFFFu) << 16));
   putU32(out + 12, h.cycles);
   putU32(out + 16, h.beams);
   putF32(out + 20, h.x0);
@@ -66,14 +74,20 @@ inline void encodeHeader(const TapeHeader& h, std::uint8_t* out) {
   putF32(out + 32, h.k0[0]);
   putF32(out + 36, h.k0[1]);
   putU32(out + 40, h.record_every);
+  putF32(out + 44, h.angle_min);
+  putF32(out + 48, h.angle_inc);
+  putF32(out + 52, h.range_max);
+  putF32(out + 56, h.sigma);
 }
 
-/// Returns false for a wrong magic, version or an impossible field.
-inline bool decodeHeader(const std::uint8_t* in, TapeHeader* h) {
+/// Returns false for a wrong magic, version or an impossible field (more than max_beams
+/// ranges per cycle among them).
+inline bool decodeHeader(const std::uint8_t* in, TapeHeader* h, std::uint32_t max_beams = 64) {
   if (std::memcmp(in, "ODTP", 4) != 0 || getU32(in + 4) != kTapeVersion) return false;
   const std::uint32_t drive_word = getU32(in + 8);
   h->drive = drive_word & 0xFFu;
   h->dry = (drive_word & 0x100u) != 0;
+  h->beams_used = (drive_word >> 16) & 0xFFFu;
   h->cycles = getU32(in + 12);
   h->beams = getU32(in + 16);
   h->x0 = getF32(in + 20);
@@ -82,9 +96,16 @@ inline bool decodeHeader(const std::uint8_t* in, TapeHeader* h) {
   h->k0[0] = getF32(in + 32);
   h->k0[1] = getF32(in + 36);
   h->record_every = getU32(in + 40);
+  h->angle_min = getF32(in + 44);
+  h->angle_inc = getF32(in + 48);
+  h->range_max = getF32(in + 52);
+  h->sigma = getF32(in + 56);
   // K0 must be positive and finite (the OF cannot start from zero noise).
   const bool k_ok = h->k0[0] > 0.0f && h->k0[0] < 1.0f && (h->drive == 1 || (h->k0[1] > 0.0f && h->k0[1] < 1.0f));
-  return h->drive <= 1 && h->beams > 0 && h->beams <= 64 && h->record_every > 0 && k_ok;
+  const bool laser_ok = h->range_max > 0.0f && h->sigma > 0.0f && h->angle_inc == h->angle_inc &&
+                        h->angle_min == h->angle_min;  // not NaN
+  return h->drive <= 1 && h->beams > 0 && h->beams <= max_beams && h->beams_used <= h->beams &&
+         h->record_every > 0 && k_ok && laser_ok;
 }
 
 }  // namespace odoerr::fw
