@@ -97,23 +97,30 @@ struct Nearest {
 /// than the nearest so far.
 template <typename S>
 inline void testWall(const WallRec<S>& w, int index, S px, S py, S ux, S uy, S min_range, Nearest<S>* best) {
-  // Solve p + r u = a + t e.  denom = u x e
-  S denom = ux * w.ey - uy * w.ex;
-  if (denom == S(0)) return;  // parallel
+  // Solve p + r u = a + t e.  denom = u x e. The point along the wall (tn) is tested
+  // first: most walls a ray is tested against it passes by.
+  const S denom = ux * w.ey - uy * w.ex;
   const S ax = w.x1 - px;
   const S ay = w.y1 - py;
-  S rn = ax * w.ey - ay * w.ex;
-  S tn = ax * uy - ay * ux;
-  if (denom < S(0)) {
-    denom = -denom;
-    rn = -rn;
-    tn = -tn;
+  const S tn = ax * uy - ay * ux;
+  S rn;
+  S den;
+  if (denom > S(0)) {
+    if (tn < S(0) || tn > denom) return;
+    rn = ax * w.ey - ay * w.ex;
+    den = denom;
+  } else if (denom < S(0)) {
+    if (tn > S(0) || tn < denom) return;
+    rn = ay * w.ex - ax * w.ey;
+    den = -denom;
+  } else {
+    return;  // parallel
   }
-  if (!(rn > min_range * denom) || tn < S(0) || tn > denom) return;
-  if (rn * best->den >= best->rn * denom) return;  // not nearer
+  if (!(rn > min_range * den)) return;
+  if (rn * best->den >= best->rn * den) return;  // not nearer
   best->wall = index;
   best->rn = rn;
-  best->den = denom;
+  best->den = den;
 }
 
 /// Entry distance of the ray into [lo, hi] along one axis, and exit; false when the ray
@@ -196,11 +203,13 @@ RayHit<S> walkGrid(const MapTables<S>& m, S px, S py, S ux, S uy, S min_range, S
   const int step_x = ux > S(0) ? 1 : -1;
   const int step_y = uy > S(0) ? g.nx : -g.nx;
   int c = iy * g.nx + ix;
+  int last = -1;  // the wall tested last: a wall crossing from one cell into the next is not tested twice
   for (;;) {
     const int end = m.cell_start[c + 1];
     for (int k = m.cell_start[c]; k < end; ++k) {
       const int i = m.cell_items[k];
-      if (!kFenced && i >= m.n_walls) continue;
+      if (i == last || (!kFenced && i >= m.n_walls)) continue;
+      last = i;
       testWall(m.walls[i], i, px, py, ux, uy, min_range, &best);
     }
     // The nearest hit so far (or the far end) lies in this cell or before it: no later

@@ -16,7 +16,7 @@ namespace odoerr::sim {
 /// The grid cell the host chooses for a map of `walls` (0: no grid, every wall tested).
 /// Maps of up to kBruteForceWalls walls are cast without an index.
 constexpr int kBruteForceWalls = 16;
-constexpr double kDefaultCellM = 0.5;
+constexpr double kDefaultCellM = 0.75;  // measured on the M4F: docs/performance.md
 
 template <typename S>
 class HostMap {
