@@ -58,6 +58,8 @@ bool run(const Odolog& log, const ReplayOptions& opt, ReplaySummary* sum, std::s
     return false;
   }
   fw::FilterSetup setup;
+  if (opt.gate_nis > 0) setup.akf.gate_nis = opt.gate_nis;
+  if (opt.param_sigma > 0) setup.sigma_scale = opt.param_sigma;
   Est est(M(drive), map.view(), laser, {S(setup.akf.max_incidence_rad), S(setup.akf.gate_nis)}, setup.of);
   typename M::StateVec x0 = M::StateVec::Zero();
   x0[0] = log.init.x;

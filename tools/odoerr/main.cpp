@@ -200,6 +200,16 @@ int main(int argc, char** argv) {
   replay->add_option("--beams-used", rp_beams, "beams fused per scan, spread evenly (0: all)")->check(CLI::Range(0, 4095));
   replay->add_option("--map-index-cell", rp_map_cell, "grid cell of the map's ray-cast index (m; 0: none)")
       ->check(CLI::Range(0.0, 100.0));
+  std::vector<double> rp_k0;
+  double rp_range_sigma = 0, rp_gate = 0;
+  replay->add_option("--k0", rp_k0, "initial non-systematic estimate: K_w (diff) or K_rho,K_theta (sync); its sigma is 10x")
+      ->delimiter(',')->check(CLI::PositiveNumber);
+  replay->add_option("--range-sigma", rp_range_sigma, "range noise std (m) instead of the log's laser record (a map built from a grid is known to a few cm)")
+      ->check(CLI::PositiveNumber);
+  double rp_param_sigma = 0;
+  replay->add_option("--param-sigma", rp_param_sigma, "prior sigma of the systematic parameters (relative; default 0.2, the paper's)")
+      ->check(CLI::PositiveNumber);
+  replay->add_option("--gate-nis", rp_gate, "innovation gate on the NIS (default 25: 5 sigma)")->check(CLI::PositiveNumber);
 
   cli::Commands commands;
   registerCommands(app, commands);
@@ -231,6 +241,22 @@ int main(int argc, char** argv) {
     ro.cycle_m = rp_cycle;
     ro.beams_used = rp_beams;
     ro.map_cell_m = rp_map_cell;
+    if (!rp_k0.empty()) {
+      const std::size_t want = log.drive == "sync" ? 2 : 1;
+      if (rp_k0.size() != want) {
+        std::fprintf(stderr, "odoerr replay: --k0 takes %zu value(s) for the %s drive\n", want, log.drive.c_str());
+        return 1;
+      }
+      if (want == 2) {
+        ro.k0_rho = rp_k0[0];
+        ro.k0_theta = rp_k0[1];
+      } else {
+        ro.k0_w = rp_k0[0];
+      }
+    }
+    if (rp_range_sigma > 0) log.laser.sigma = rp_range_sigma;
+    ro.gate_nis = rp_gate;
+    ro.param_sigma = rp_param_sigma;
     ReplaySummary sum;
     if (!replayOdolog(log, ro, &sum, &err)) {
       std::fprintf(stderr, "odoerr replay: %s\n", err.c_str());

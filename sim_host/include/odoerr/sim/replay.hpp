@@ -26,6 +26,10 @@ struct ReplayOptions {
   int beams_used = 0;
   /// Grid cell of the map's index (m); < 0: chosen from the map's size, 0: no index.
   double map_cell_m = -1;
+  /// The innovation gate on the NIS; 0: the filter's default (25, 5 sigma).
+  double gate_nis = 0;
+  /// Prior sigma of the systematic parameters (relative); 0: the paper's (0.2).
+  double param_sigma = 0;
 };
 
 struct ReplayParam {
