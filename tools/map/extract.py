@@ -358,15 +358,24 @@ def point_segment_distance(pts, segs, chunk=4096):
     return out
 
 
-def fit_metrics(grid, segs):
+def fit_metrics(grid, segs, min_cells=None):
     """RMS distance (m) of the occupied cell centres to the nearest segment, the share of them
-    within one cell (grid.resolution) of a segment, and the cell count."""
+    within one cell (grid.resolution) of a segment, and the cell count. With min_cells, the
+    same over the cells outside specks (components of fewer cells) as *_kept."""
     pts = grid.occupied_centres()
     if len(pts) == 0:
         raise ValueError("the grid has no occupied cell: no fit to report")
     if len(segs) == 0:
         return dict(rms_m=float("inf"), within_one_cell=0.0, cells=len(pts))
     d = point_segment_distance(pts, np.asarray(segs, dtype=float))
-    return dict(rms_m=float(np.sqrt((d ** 2).mean())),
-                within_one_cell=float((d <= grid.resolution * (1 + 1e-9)).mean()),
-                cells=int(len(pts)))
+    tol = grid.resolution + 1e-4  # + the odomap files' 0.1 mm rounding
+    out = dict(rms_m=float(np.sqrt((d ** 2).mean())), within_one_cell=float((d <= tol).mean()),
+               cells=int(len(pts)))
+    if min_cells is not None:
+        kept, _ = drop_specks(grid.occ, min_cells)
+        r, c = np.nonzero(grid.occ)
+        k = kept[r, c]
+        if k.any():
+            out.update(rms_m_kept=float(np.sqrt((d[k] ** 2).mean())),
+                       within_one_cell_kept=float((d[k] <= tol).mean()), cells_kept=int(k.sum()))
+    return out
