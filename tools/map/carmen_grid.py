@@ -14,7 +14,8 @@ them) and the cell of its return is observed occupied:
 clamped to [-L_CLAMP, L_CLAMP] = [-5, 5]. A cell crossed and hit in the same scan counts as
 hit. Returns beyond MAX_RANGE (default 20 m) clear the cells up to MAX_RANGE and add no hit;
 a beam with no return (81.83 m, or >= 81 m) is not used at all (it clears nothing: no return
-may be glass or a dark surface as well as open space). A ray is sampled every half cell.
+may be glass or a dark surface as well as open space). A ray is sampled every half cell, and
+clears the cells up to `free_stop` (0.5) cells short of its return.
 Output cells as map_saver writes them (trinary): p > 0.65 occupied (0), p < 0.196 free
 (254), else or never observed unknown (205).
 """
@@ -99,7 +100,7 @@ def _extent(scans, step, max_range, res, margin=1.0):
     return x0, y0, cols, rows
 
 
-def build(scans, resolution=0.05, max_range=20.0, step=math.radians(1.0)):
+def build(scans, resolution=0.05, max_range=20.0, step=math.radians(1.0), free_stop=0.5):
     """Log-odds grid (rows x cols float array, row 0 = bottom) and the origin (x0, y0)."""
     x0, y0, cols, rows = _extent(scans, step, max_range, resolution)
     lo = np.zeros(rows * cols)
@@ -108,7 +109,7 @@ def build(scans, resolution=0.05, max_range=20.0, step=math.radians(1.0)):
         x, y, ang, reach, hit = _beams(s, step, max_range)
         c, si = np.cos(ang), np.sin(ang)
         # free: samples before the return (half a cell short of it)
-        m = t[None, :] < (reach[:, None] - 0.5 * resolution)
+        m = t[None, :] < (reach[:, None] - free_stop * resolution)
         px = (x + t[None, :] * c[:, None])[m]
         py = (y + t[None, :] * si[:, None])[m]
         free = np.unique(((py - y0) // resolution).astype(np.int64) * cols + ((px - x0) // resolution).astype(np.int64))
