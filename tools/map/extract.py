@@ -1,26 +1,22 @@
 """extract.py: line segments from the occupied cells of an occupancy grid.
 
-Method (`skeleton`, the default; docs/map-format.md):
- 1. specks: 8-connected components of occupied cells with fewer than `min_cells` cells are
-    dropped (lone cells from a laser's stray return, dust, a person walking by);
- 2. thinning: the occupied cells are thinned to a one-cell-wide skeleton (Zhang-Suen), so a
-    wall two or three cells thick gives ONE centre line, not its two contours;
- 3. tracing: the skeleton is cut into chains of cells between end points and junctions
-    (cells whose crossing number is not 2); branches shorter than `spur_cells` that end
-    free at one side (thinning spurs at corners) are dropped;
- 4. split-and-merge: each chain is split recursively at its farthest cell from the chord
-    while that distance exceeds `tol_cells`; each piece is refitted by total least squares
-    (the line through its cells' centroid along their principal axis), its end points
-    being its first and last cell projected on that line;
- 5. merge: segments whose end points lie within `merge_gap_cells` of each other, at less
-    than 15 deg (or either shorter than 3 cells), are merged when one line fits their cells
-    (all within 2 `tol_cells`, 90 % within `tol_cells`) (this joins the pieces a junction or a drop-out cut).
-Alternative (`ransac`, kept for the measured comparison): sequential RANSAC over the
-occupied cell centres (after step 1), a line's inliers cut at gaps into runs, the
-longest run kept as a segment and its cells removed; then the same merge (step 5).
-
-fit_metrics(): RMS distance of ALL occupied cell centres (specks included) to their nearest
-segment, and the share of them within one cell of a segment.
+Method `skeleton` (the default; docs/map-format.md gives the reasons and the measurements);
+lengths in cells, parameters in DEFAULTS:
+ 1. specks: 8-connected components of fewer than `min_cells` cells are dropped (segfit.py);
+ 2. holes of at most `hole_cells` cells inside walls are filled (skeleton.py);
+ 3. Zhang-Suen thinning to a one-cell-wide skeleton: one centre line per wall band;
+ 4. tracing into chains between end points and junctions; short spurs dropped;
+ 5. split: each chain split recursively at its farthest cell from the chord while that
+    exceeds `tol_cells`; pieces fitted by total least squares;
+ 6. merge: pieces whose ends are within `merge_gap_cells` merged when one line fits them;
+ 7. bridge: collinear pieces up to `bridge_cells` apart joined when the gap is covered by
+    occupied cells (never across a doorway);
+ 8. refit: each segment refitted to the occupied cells nearest to it, its extent grown to
+    cover them;
+ 9. junctions: ends moved to where their line meets another within `snap_cells`.
+Method `ransac` (ransac.py): the measured alternative. Segments come out in world metres;
+fit_metrics (segfit.py) gives the RMS distance of the occupied cells to the segments and the
+share within one cell.
 """
 
 import math
@@ -30,151 +26,11 @@ import numpy as np
 from scipy import ndimage
 from scipy.spatial import cKDTree
 
+from segfit import drop_specks, fit_metrics, fits, point_segment_distance, segment_from, tls_fit  # noqa: F401
+from skeleton import close_small_gaps, thin, trace_chains
+
 DEFAULTS = dict(min_cells=4, spur_cells=3, tol_cells=1.0, merge_gap_cells=2.0, min_points=2, hole_cells=4,
                 snap_cells=2.5, bridge_cells=8.0, closing=False)
-_OFFS = ((-1, 0), (-1, 1), (0, 1), (1, 1), (1, 0), (1, -1), (0, -1), (-1, -1))  # P2..P9 clockwise
-_EIGHT = np.ones((3, 3), dtype=bool)
-
-
-def drop_specks(occ, min_cells):
-    """occ without its 8-connected components of fewer than min_cells cells; and how many
-    cells were dropped."""
-    lab, n = ndimage.label(occ, structure=_EIGHT)
-    if n == 0:
-        return occ.copy(), 0
-    sizes = np.bincount(lab.ravel())
-    keep = sizes >= min_cells
-    keep[0] = False
-    out = keep[lab]
-    return out, int(occ.sum() - out.sum())
-
-
-def _neighbours(p):
-    """The eight neighbour planes P2..P9 of a padded boolean image p (interior view)."""
-    h, w = p.shape[0] - 2, p.shape[1] - 2
-    return [p[1 + dr:1 + dr + h, 1 + dc:1 + dc + w] for dr, dc in _OFFS]
-
-
-def thin(mask):
-    """Zhang-Suen thinning (Comm. ACM 27(3), 1984) of a boolean image; components that
-    would vanish entirely (2x2 blocks) keep one cell."""
-    img = np.pad(mask.astype(bool), 1)
-    while True:
-        changed = False
-        for step in (0, 1):
-            core = img[1:-1, 1:-1]
-            n = [v.astype(np.int8) for v in _neighbours(img)]
-            b = sum(n)
-            a = sum(((n[i] == 0) & (n[(i + 1) % 8] == 1)).astype(np.int8) for i in range(8))
-            p2, p4, p6, p8 = n[0], n[2], n[4], n[6]
-            if step == 0:
-                c = (p2 * p4 * p6 == 0) & (p4 * p6 * p8 == 0)
-            else:
-                c = (p2 * p4 * p8 == 0) & (p2 * p6 * p8 == 0)
-            rm = core & (b >= 2) & (b <= 6) & (a == 1) & c
-            if rm.any():
-                core[rm] = False
-                changed = True
-        if not changed:
-            break
-    sk = img[1:-1, 1:-1]
-    lab, n = ndimage.label(mask, structure=_EIGHT)
-    if n:
-        present = np.zeros(n + 1, dtype=bool)
-        present[lab[sk]] = True
-        for k in np.nonzero(~present[1:])[0] + 1:
-            r, c = np.argwhere(lab == k)[0]
-            sk[r, c] = True
-    return sk
-
-
-def trace_chains(sk, spur_cells):
-    """The skeleton as ordered chains of (row, col) cells between nodes (crossing number != 2)."""
-    p = np.pad(sk, 1)
-    n = [v.astype(np.int8) for v in _neighbours(p)]
-    cross = sum(((n[i] == 0) & (n[(i + 1) % 8] == 1)).astype(np.int8) for i in range(8))
-    is_node = sk & (cross != 2)
-    cells = set(map(tuple, np.argwhere(sk)))
-    nodes = set(map(tuple, np.argwhere(is_node)))
-    visited = set()
-
-    def nbrs(c):
-        r, q = c
-        four = [(r + dr, q + dc) for dr, dc in ((-1, 0), (0, 1), (1, 0), (0, -1))]
-        diag = [(r + dr, q + dc) for dr, dc in ((-1, 1), (1, 1), (1, -1), (-1, -1))]
-        return [x for x in four + diag if x in cells]
-
-    def walk(start, first):
-        chain = [start, first]
-        prev, cur = start, first
-        visited.add(first)
-        while cur not in nodes:
-            nxt = [x for x in nbrs(cur) if x != prev and x != start and (x in nodes or x not in visited)]
-            if not nxt:
-                # a loop closes on its start, or a dead end
-                if start not in nodes and start in nbrs(cur) and len(chain) > 3:
-                    chain.append(start)
-                break
-            nodes_first = [x for x in nxt if x in nodes]
-            prev, cur = cur, (nodes_first[0] if nodes_first else nxt[0])
-            chain.append(cur)
-            if cur not in nodes:
-                visited.add(cur)
-        return chain
-
-    chains = []
-    seen_pairs = set()
-    for nd in sorted(nodes):
-        for m in nbrs(nd):
-            if m in nodes:
-                if (m, nd) not in seen_pairs:
-                    seen_pairs.add((nd, m))
-                    chains.append([nd, m])
-            elif m not in visited:
-                chains.append(walk(nd, m))
-        if not nbrs(nd):
-            chains.append([nd])
-    for c in sorted(cells - nodes - visited):  # closed loops with no node
-        if c in visited:
-            continue
-        visited.add(c)
-        nb = [x for x in nbrs(c) if x not in visited]
-        if nb:
-            chains.append(walk(c, nb[0]))
-        else:
-            chains.append([c])
-    # spurs: short branches with a free end and a junction at the other
-    deg = {}
-    for ch in chains:
-        for e in (ch[0], ch[-1]):
-            deg[e] = deg.get(e, 0) + 1
-    out = []
-    for ch in chains:
-        a, b = ch[0], ch[-1]
-        free_end = deg[a] == 1 or deg[b] == 1
-        junction = deg[a] >= 3 or deg[b] >= 3
-        if free_end and junction and len(ch) < spur_cells:
-            continue
-        out.append(ch)
-    return out
-
-
-def tls_fit(pts):
-    """Total least squares line: centroid and unit direction; and the max distance to it."""
-    c = pts.mean(axis=0)
-    d = pts - c
-    if len(pts) < 2:
-        return c, np.array([1.0, 0.0]), 0.0
-    _, _, vt = np.linalg.svd(d, full_matrices=False)
-    u = vt[0]
-    dist = np.abs(d[:, 0] * u[1] - d[:, 1] * u[0])
-    return c, u, float(dist.max())
-
-
-def _segment_from(pts):
-    c, u, _ = tls_fit(pts)
-    t = (pts - c) @ u
-    return np.concatenate([c + t.min() * u, c + t.max() * u])
 
 
 def split(pts, tol):
@@ -200,18 +56,6 @@ def split(pts, tol):
         else:
             out.append((i, j))
     return sorted(out)
-
-
-def _fits(pts, tol):
-    """One line fits the points: none farther than 2 tol from it, at most 1 in 10 farther
-    than tol (a short jog round a drop-out does not keep two pieces of a wall apart)."""
-    c, u, dmax = tls_fit(pts)
-    if dmax <= tol:
-        return True
-    if dmax > 2 * tol:
-        return False
-    d = np.abs((pts[:, 0] - c[0]) * u[1] - (pts[:, 1] - c[1]) * u[0])
-    return (d > tol).mean() <= 0.1
 
 
 def merge(segs, pts_list, tol, gap, max_angle_deg=15.0):
@@ -240,9 +84,9 @@ def merge(segs, pts_list, tol, gap, max_angle_deg=15.0):
             if min(ni, nj) > 3.0 and abs(di @ dj) / (ni * nj) < cos_max:
                 continue
             pts = np.vstack([pts_list[i], pts_list[j]])
-            if not _fits(pts, tol):
+            if not fits(pts, tol):
                 continue
-            segs[i] = _segment_from(pts)
+            segs[i] = segment_from(pts)
             pts_list[i] = pts
             alive[j] = False
             merged = True
@@ -294,9 +138,9 @@ def bridge(segs, pts_list, occ, tol, max_gap, max_angle_deg=10.0, covered=1.5, s
             ea = segs[i][0:2] if which[p] == 0 else segs[i][2:4]
             eb = segs[j][0:2] if which[q] == 0 else segs[j][2:4]
             pts = np.vstack([pts_list[i], pts_list[j]])
-            if not _fits(pts, tol) or not on_wall(ea, eb):
+            if not fits(pts, tol) or not on_wall(ea, eb):
                 continue
-            segs[i] = _segment_from(pts)
+            segs[i] = segment_from(pts)
             pts_list[i] = pts
             alive[j] = False
             joined.append(i)
@@ -317,28 +161,6 @@ def bridge(segs, pts_list, occ, tol, max_gap, max_angle_deg=10.0, covered=1.5, s
                     alive[k] = False
     keep = [i for i in range(len(segs)) if alive[i]]
     return [segs[i] for i in keep], [pts_list[i] for i in keep]
-
-
-def close_small_gaps(occ, hole_cells, closing=False):
-    """occ with its holes of at most hole_cells cells filled (4-connected pockets of
-    non-occupied cells not touching the border): a wall with drop-outs then thins to one
-    line instead of loops round each hole. With closing, first a morphological closing by
-    a 3 x 3 square (bridges one-cell gaps; measured worse on the Intel grid, where it fuses
-    clutter with walls: off by default)."""
-    closed = occ.copy()
-    if closing:
-        closed |= ndimage.binary_closing(np.pad(occ, 2), structure=_EIGHT)[2:-2, 2:-2]
-    if hole_cells <= 0:
-        return closed
-    lab, n = ndimage.label(~closed)
-    if n:
-        sizes = np.bincount(lab.ravel())
-        border = np.unique(np.concatenate([lab[0], lab[-1], lab[:, 0], lab[:, -1]]))
-        small = sizes <= hole_cells
-        small[0] = False
-        small[border] = False
-        closed |= small[lab]
-    return closed
 
 
 def snap_junctions(segs, reach):
@@ -444,7 +266,7 @@ def extract_skeleton(occ, p):
             piece = pts[i:j + 1]
             if len(piece) < p["min_points"]:
                 continue
-            segs.append(_segment_from(piece))
+            segs.append(segment_from(piece))
             pts_list.append(piece)
     segs, pts_list = merge(segs, pts_list, p["tol_cells"], p["merge_gap_cells"])
     segs, pts_list = bridge(segs, pts_list, kept, p["tol_cells"], p["bridge_cells"])
@@ -454,57 +276,12 @@ def extract_skeleton(occ, p):
     return segs, dict(dropped_cells=dropped, skeleton_cells=int(sk.sum()), chains=len(chains))
 
 
-def extract_ransac(occ, p, seed=1, iters=60, radius_cells=60.0, min_inliers=5):
-    """The sequential-RANSAC alternative (module docstring); segments in cell units."""
-    rng = np.random.default_rng(seed)
-    kept, dropped = drop_specks(occ, p["min_cells"])
-    r, c = np.nonzero(kept)
-    pts = np.column_stack([c + 0.5, r + 0.5]).astype(float)
-    tree = cKDTree(pts)
-    remaining = np.ones(len(pts), dtype=bool)
-    tol, gap = 0.5 * p["tol_cells"] + 0.25, p["merge_gap_cells"]
-    segs, pts_list, fails = [], [], 0
-    while remaining.sum() >= min_inliers and fails < 200:
-        rem_idx = np.nonzero(remaining)[0]
-        seed_i = rem_idx[rng.integers(len(rem_idx))]
-        near = np.array(tree.query_ball_point(pts[seed_i], radius_cells), dtype=int)
-        near = near[remaining[near]]
-        if len(near) < min_inliers:
-            remaining[seed_i] = False
-            continue
-        best = None
-        for _ in range(iters):
-            j = near[rng.integers(len(near))]
-            d = pts[j] - pts[seed_i]
-            L = math.hypot(d[0], d[1])
-            if L < 1.0:
-                continue
-            nrm = np.array([-d[1], d[0]]) / L
-            dist = np.abs((pts[near] - pts[seed_i]) @ nrm)
-            inl = near[dist <= tol]
-            t = (pts[inl] - pts[seed_i]) @ (d / L)
-            order = np.argsort(t)
-            ts, inl = t[order], inl[order]
-            cuts = np.nonzero(np.diff(ts) > gap)[0]
-            starts = np.concatenate([[0], cuts + 1])
-            stops = np.concatenate([cuts + 1, [len(ts)]])
-            k = int(np.argmax(stops - starts))
-            run = inl[starts[k]:stops[k]]
-            if best is None or len(run) > len(best):
-                best = run
-        if best is None or len(best) < min_inliers:
-            fails += 1
-            continue
-        fails = 0
-        piece = pts[best]
-        segs.append(_segment_from(piece))
-        pts_list.append(piece)
-        remaining[best] = False
-    segs, pts_list = merge(segs, pts_list, p["tol_cells"], gap)
-    return segs, dict(dropped_cells=dropped, unexplained_cells=int(remaining.sum()))
+def _ransac(occ, p):
+    import ransac
+    return ransac.extract_ransac(occ, p)
 
 
-METHODS = {"skeleton": extract_skeleton, "ransac": extract_ransac}
+METHODS = {"skeleton": extract_skeleton, "ransac": _ransac}
 
 
 def extract(grid, method="skeleton", **params):
@@ -525,60 +302,3 @@ def extract(grid, method="skeleton", **params):
     x2, y2 = grid.to_world(s[:, 2], s[:, 3])
     stats.update(method=method, seconds=secs, occupied_cells=int(grid.occ.sum()), params=p)
     return np.column_stack([x1, y1, x2, y2]), stats
-
-
-def point_segment_distance(pts, segs, chunk=4096, return_index=False):
-    """Distance (N) from each point to the nearest of the segments (M x 4); with
-    return_index, also that segment's index."""
-    if len(segs) == 0:
-        d = np.full(len(pts), np.inf)
-        return (d, np.full(len(pts), -1)) if return_index else d
-    a, b = segs[:, 0:2], segs[:, 2:4]
-    ab = b - a
-    ll = np.maximum((ab ** 2).sum(axis=1), 1e-18)
-    tree = cKDTree((a + b) / 2)
-    half = float(np.sqrt(ll).max()) / 2
-    out = np.empty(len(pts))
-    arg = np.empty(len(pts), dtype=int)
-    for k in range(0, len(pts), chunk):
-        q = pts[k:k + chunk]
-        # candidates: segments whose midpoint lies within (nearest midpoint distance + half
-        # the longest segment); exact, because a segment lies within half its length of its midpoint
-        dmid, _ = tree.query(q)
-        best = np.full(len(q), np.inf)
-        besti = np.full(len(q), -1)
-        cand = tree.query_ball_point(q, dmid + half)
-        for i, cs in enumerate(cand):
-            cs = np.asarray(cs, dtype=int)
-            ap = q[i] - a[cs]
-            t = np.clip((ap * ab[cs]).sum(axis=1) / ll[cs], 0.0, 1.0)
-            d = ap - t[:, None] * ab[cs]
-            dd = np.sqrt((d ** 2).sum(axis=1))
-            m = int(np.argmin(dd))
-            best[i], besti[i] = dd[m], cs[m]
-        out[k:k + chunk] = best
-        arg[k:k + chunk] = besti
-    return (out, arg) if return_index else out
-
-
-def fit_metrics(grid, segs, min_cells=None):
-    """RMS distance (m) of the occupied cell centres to the nearest segment, the share of them
-    within one cell (grid.resolution) of a segment, and the cell count. With min_cells, the
-    same over the cells outside specks (components of fewer cells) as *_kept."""
-    pts = grid.occupied_centres()
-    if len(pts) == 0:
-        raise ValueError("the grid has no occupied cell: no fit to report")
-    if len(segs) == 0:
-        return dict(rms_m=float("inf"), within_one_cell=0.0, cells=len(pts))
-    d = point_segment_distance(pts, np.asarray(segs, dtype=float))
-    tol = grid.resolution + 1e-4  # + the odomap files' 0.1 mm rounding
-    out = dict(rms_m=float(np.sqrt((d ** 2).mean())), within_one_cell=float((d <= tol).mean()),
-               cells=int(len(pts)))
-    if min_cells is not None:
-        kept, _ = drop_specks(grid.occ, min_cells)
-        r, c = np.nonzero(grid.occ)
-        k = kept[r, c]
-        if k.any():
-            out.update(rms_m_kept=float(np.sqrt((d[k] ** 2).mean())),
-                       within_one_cell_kept=float((d[k] <= tol).mean()), cells_kept=int(k.sum()))
-    return out
