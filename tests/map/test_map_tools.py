@@ -88,6 +88,28 @@ def doorway_case(tmp, res=0.05):
     check(ok, "the doorway's walls are recovered within one cell")
 
 
+def faces_case(res=0.05):
+    """A room as a laser sees it: each wall a band of occupied cells from its surface to two
+    cells behind it (returns scatter past the surface), free cells in front. With faces=True
+    the segments lie on the surfaces (within 0.6 cell); the default centre
+    lines lie about one cell behind them."""
+    cols, rows = int(6 / res), int(5 / res)
+    c, r = np.meshgrid(np.arange(cols), np.arange(rows))
+    x, y = (c + 0.5) * res, (r + 0.5) * res
+    inside = (x > 1) & (x < 5) & (y > 1) & (y < 4)
+    outer = (x > 1 - 3 * res) & (x < 5 + 3 * res) & (y > 1 - 3 * res) & (y < 4 + 3 * res)
+    g = rosmap.Grid(outer & ~inside, inside, res, (0.0, 0.0, 0.0), source="faces")
+    surfaces = np.array([[1.2, 1, 4.8, 1], [5, 1.2, 5, 3.8], [4.8, 4, 1.2, 4], [1, 3.8, 1, 1.2]])
+    worst = {}
+    for faces in (False, True):
+        segs, _ = extract.extract(g, faces=faces)
+        worst[faces] = max(seg_dist(sample(w, res / 2), segs).max() for w in surfaces)
+    # the surface is the cells' edge here, half a cell from the free-facing cells' centres
+    check(worst[True] <= 0.6 * res and worst[True] < worst[False],
+          f"faces=True puts the segments on the surfaces: worst {worst[True] / res:.2f} cells "
+          f"(centre lines: {worst[False] / res:.2f} cells)")
+
+
 def write_yaml(path, image="m.pgm", drop=None, extra=""):
     keys = dict(image=image, resolution="0.1", origin="[-1.0, -2.0, 0.0]", negate="0",
                 occupied_thresh="0.65", free_thresh="0.196")
@@ -189,6 +211,7 @@ def main():
                   f"{fm['rms_m'] * 100:.2f} cm (outside specks {fm['rms_m_kept'] * 100:.2f} cm), within one cell "
                   f"{fm['within_one_cell'] * 100:.1f} % ({fm['within_one_cell_kept'] * 100:.1f} %)")
         doorway_case(tmp)
+        faces_case()
         reader_cases(tmp)
         odomap_cases(tmp)
     if failures:

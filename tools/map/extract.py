@@ -30,7 +30,7 @@ from segfit import drop_specks, fit_metrics, fits, point_segment_distance, segme
 from skeleton import close_small_gaps, thin, trace_chains
 
 DEFAULTS = dict(min_cells=4, spur_cells=3, tol_cells=1.0, merge_gap_cells=2.0, min_points=2, hole_cells=4,
-                snap_cells=2.5, bridge_cells=8.0, closing=False)
+                snap_cells=2.5, bridge_cells=8.0, closing=False, faces=False)
 
 
 def split(pts, tol):
@@ -254,7 +254,67 @@ def refit_to_cells(segs, occ, reach=1.5, margin=2.0, min_cells=5):
     return out
 
 
-def extract_skeleton(occ, p):
+def to_faces(segs, occ, free, min_sep=2.5, reach=3.0, max_shift=2.0):
+    """Moves each segment from the middle of its band of occupied cells to the band's face:
+    the free-facing cells (occupied cells with a free 4-neighbour), where the laser's returns
+    are. In a grid built from laser returns the cells in front of a surface are cleared by
+    the beams that pass through them, while returns scattered beyond it pile up behind: the
+    band's middle lies about half a band behind the surface (measured on the Intel grid:
+    docs/map-format.md). For each segment, the free-facing cells nearest to it (within
+    `reach`) are sorted by the side their free neighbour is on:
+    - one side only (at least 30 % of its length in cells, and 3): the segment is moved
+      parallel to the median offset of those cells (at most max_shift cells);
+    - both sides, their medians at least min_sep cells apart (a wall seen from both sides):
+      two segments, one on each face;
+    - else it stays. In cell units."""
+    if not segs:
+        return segs
+    four = np.array([[0, 1, 0], [1, 1, 1], [0, 1, 0]], dtype=bool)
+    rows, cols = occ.shape
+    facing = occ & ndimage.binary_dilation(free, structure=four)
+    r, c = np.nonzero(facing)
+    pts = np.column_stack([c + 0.5, r + 0.5]).astype(float)
+    S = np.array(segs, dtype=float)
+    d, idx = point_segment_distance(pts, S, return_index=True)
+    out = []
+    for i, s in enumerate(S):
+        a, b = s[0:2], s[2:4]
+        L = np.hypot(*(b - a))
+        sel = (idx == i) & (d <= reach)
+        if L < 4 or sel.sum() < 6:
+            out.append(s)
+            continue
+        u = (b - a) / L
+        n = np.array([-u[1], u[0]])
+        q = pts[sel]
+        off = (q - a) @ n
+        # which side the free neighbour is on: sample free one cell further out each way
+        side = []
+        for k, p0 in enumerate(q):
+            ahead = p0 + n
+            back = p0 - n
+            fa = free[min(max(int(ahead[1]), 0), rows - 1), min(max(int(ahead[0]), 0), cols - 1)]
+            fb = free[min(max(int(back[1]), 0), rows - 1), min(max(int(back[0]), 0), cols - 1)]
+            side.append(1 if fa and not fb else (-1 if fb and not fa else 0))
+        side = np.array(side)
+        plus, minus = off[side > 0], off[side < 0]
+        need = max(3, int(0.3 * L))
+        has_p, has_m = len(plus) >= need, len(minus) >= need
+        if has_p and has_m:
+            if np.median(plus) - np.median(minus) >= min_sep:
+                for o in (np.median(plus), np.median(minus)):
+                    out.append(np.concatenate([a + o * n, b + o * n]))
+            else:
+                out.append(s)
+        elif has_p or has_m:
+            o = float(np.clip(np.median(plus if has_p else minus), -max_shift, max_shift))
+            out.append(np.concatenate([a + o * n, b + o * n]))
+        else:
+            out.append(s)
+    return out
+
+
+def extract_skeleton(occ, p, free=None):
     """Segments in cell units (x = col + 0.5, y = row + 0.5), and statistics."""
     kept, dropped = drop_specks(occ, p["min_cells"])
     sk = thin(close_small_gaps(kept, p["hole_cells"], p["closing"]))
@@ -271,12 +331,14 @@ def extract_skeleton(occ, p):
     segs, pts_list = merge(segs, pts_list, p["tol_cells"], p["merge_gap_cells"])
     segs, pts_list = bridge(segs, pts_list, kept, p["tol_cells"], p["bridge_cells"])
     segs = refit_to_cells(segs, kept)
+    if p["faces"] and free is not None:
+        segs = to_faces(segs, kept, free)
     segs = snap_junctions(segs, p["snap_cells"])
     segs = [s for s in segs if np.hypot(s[2] - s[0], s[3] - s[1]) > 1e-9]
     return segs, dict(dropped_cells=dropped, skeleton_cells=int(sk.sum()), chains=len(chains))
 
 
-def _ransac(occ, p):
+def _ransac(occ, p, free=None):
     import ransac
     return ransac.extract_ransac(occ, p)
 
@@ -295,7 +357,7 @@ def extract(grid, method="skeleton", **params):
     if method not in METHODS:
         raise ValueError(f"unknown extraction method '{method}' ({', '.join(METHODS)})")
     t0 = time.perf_counter()
-    segs, stats = METHODS[method](grid.occ, p)
+    segs, stats = METHODS[method](grid.occ, p, free=grid.free)
     secs = time.perf_counter() - t0
     s = np.array(segs, dtype=float).reshape(-1, 4)
     x1, y1 = grid.to_world(s[:, 0], s[:, 1])

@@ -1,11 +1,13 @@
 #!/usr/bin/env python3
 """odoerr_map.py: the map tool chain behind `odoerr map import|render|grid-from-carmen`.
 
-    odoerr_map.py import MAP.yaml --out MAP.odomap [--png P] [--method skeleton|ransac]
+    odoerr_map.py import MAP.yaml --out MAP.odomap [--png P] [--method skeleton|ransac] [--faces]
     odoerr_map.py render MAP.odomap [--grid MAP.yaml] --out P.png
     odoerr_map.py grid-from-carmen LOG --out PREFIX [--resolution R] [--max-range M]
                   [--max-scans N] [--beam-step DEG]
     odoerr_map.py compare MAP.yaml [MAP.yaml...]   (the extraction methods side by side)
+    odoerr_map.py scan-residuals MAP.odomap LOG [--every K] [--beam-step DEG]
+                  (the scans of a corrected CARMEN log against the map, at the corrected poses)
 
 Exit status: 0 done, 2 bad input (the message names the file and the problem), 1 other.
 docs/map-format.md documents the format and the methods.
@@ -41,7 +43,10 @@ def fit_line(segs, fm):
 
 def cmd_import(a):
     g = rosmap.load(a.map)
-    segs, st = extract.extract(g, a.method)
+    params = {"faces": True} if a.faces else {}
+    if a.faces and a.method != "skeleton":
+        raise rosmap.MapError("--faces applies to the skeleton method only")
+    segs, st = extract.extract(g, a.method, **params)
     if len(segs) == 0:
         raise rosmap.MapError(f"{a.map}: no segment extracted ({st['occupied_cells']} occupied cells, "
                               f"{st['dropped_cells']} of them in specks): nothing to write")
@@ -107,6 +112,20 @@ def cmd_compare(a):
     return 0
 
 
+def cmd_residuals(a):
+    import math
+    import scan_check
+    segs = odomap.read_walls(a.map)
+    scans = carmen_grid.read_scans(a.log, a.max_scans)
+    res, missed = scan_check.residuals(scans, segs, math.radians(a.beam_step), a.max_range, a.every)
+    s = scan_check.summary(res, missed)
+    print(f"{PROG} scan-residuals: {a.map} against {len(scans[::a.every])} scans of {a.log}: {s['returns']} returns "
+          f"hit a segment ({s['no_segment']} hit none); measured - predicted: median {s['median_m'] * 100:.2f} cm, "
+          f"MAD {s['mad_m'] * 100:.2f} cm, {s['within_10cm'] * 100:.1f} % within 10 cm, "
+          f"{s['within_30cm'] * 100:.1f} % within 30 cm")
+    return 0
+
+
 def main(argv=None):
     ap = Parser(prog=PROG, description="maps: import a ROS occupancy grid, render, build a grid from a CARMEN log")
     sub = ap.add_subparsers(dest="cmd", required=True, parser_class=Parser)
@@ -115,6 +134,9 @@ def main(argv=None):
     p.add_argument("--out", required=True, metavar="MAP.odomap")
     p.add_argument("--png", metavar="P.png", help="also draw the segments over the grid")
     p.add_argument("--method", choices=sorted(extract.METHODS), default="skeleton")
+    p.add_argument("--faces", action="store_true",
+                   help="put each segment on its band's free-facing side (where a laser's returns are) "
+                        "instead of the band's middle")
     p.set_defaults(fn=cmd_import)
     p = sub.add_parser("render", help="draw a map's segments (over its grid) as a PNG")
     p.add_argument("map", metavar="MAP.odomap", help="an odomap, or an odolog with wall records")
@@ -134,7 +156,17 @@ def main(argv=None):
     p.add_argument("maps", nargs="+", metavar="MAP.yaml")
     p.add_argument("--label", default=None)
     p.set_defaults(fn=cmd_compare)
+    p = sub.add_parser("scan-residuals", help="a map against a corrected CARMEN log's scans at its poses")
+    p.add_argument("map", metavar="MAP.odomap")
+    p.add_argument("log", metavar="LOG")
+    p.add_argument("--every", type=int, default=1, metavar="K", help="every K-th scan (default 1)")
+    p.add_argument("--max-scans", type=int, default=None, metavar="N")
+    p.add_argument("--max-range", type=float, default=20.0, metavar="M")
+    p.add_argument("--beam-step", type=float, default=1.0, metavar="DEG")
+    p.set_defaults(fn=cmd_residuals)
     a = ap.parse_args(argv)
+    if getattr(a, "every", 1) < 1:
+        ap.error("--every must be >= 1")
     try:
         return a.fn(a)
     except (rosmap.MapError, odomap.OdomapError, carmen_grid.LogError) as e:

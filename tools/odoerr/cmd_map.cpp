@@ -28,6 +28,7 @@ void registerMapCommands(CLI::App& app, cli::Commands& cmds) {
 
   struct ImportOpts {
     std::string map, out, png, method = "skeleton";
+    bool faces = false;
   };
   auto im = std::make_shared<ImportOpts>();
   CLI::App* imp = map->add_subcommand("import", "ROS map_server map (YAML + PGM) -> line map (.odomap), with its fit");
@@ -36,9 +37,12 @@ void registerMapCommands(CLI::App& app, cli::Commands& cmds) {
   imp->add_option("--png", im->png, "also draw the segments over the grid (PNG)");
   imp->add_option("--method", im->method, "extraction: skeleton (default) or ransac")
       ->check(CLI::IsMember({"skeleton", "ransac"}));
+  imp->add_flag("--faces", im->faces,
+                "put each segment on its band's free-facing side (where the laser's returns are), not its middle");
   cmds.add(imp, [im]() {
     std::vector<std::string> a{"import", im->map, "--out", im->out, "--method", im->method};
     if (!im->png.empty()) a.insert(a.end(), {"--png", im->png});
+    if (im->faces) a.push_back("--faces");
     return cli::runPython(mapScript(), a);
   });
 
