@@ -3,6 +3,7 @@
 
 Usage:
     carmen_to_odolog.py LOG[.gz] --out FILE [--max-scans N] [--fix-every N]
+                        [--scans [--range-max M] [--range-sigma S]]
 
 Source: ../shared/data/carmen/intel-corrected.log.gz (read its README.md): recorded by
 Dirk Haehnel in the Intel Research Lab, Seattle, distributed through Radish (the Robotics
@@ -48,10 +49,19 @@ Mapping (format: ../shared/spec/odolog-v1.md):
   motion capture.
 - with --fix-every N > 0, scans k = N, 2N, ... also give a `pose` fix at P_k with
   sigmas 0.03 m, 0.03 m, 0.02 rad (default 0: no fixes; scan 0 never, it is the init).
-- NO `laser`, `scan` or `wall` records: odolog range observations are predicted against a
-  known map of line segments (`wall`), and the Intel lab has none. A segment map could
-  only be traced from the very SLAM trajectory that serves as truth here, which would
-  make the evaluation circular; the 180-beam ranges are therefore not exported.
+- without --scans: NO `laser`, `scan` or `wall` records.
+- with --scans: the header gets `laser 180 -1.5707963 0.017453293 RANGE_MAX SIGMA 0 0 0`
+  (first beam at -90 deg, counter-clockwise, one beam per DEGREE: the step was measured
+  against the alternative reading 180/179 deg by building the occupancy grid both ways,
+  see docs/map-format.md; the laser is taken at the robot's origin, as no mount offset is
+  known for this log), and each FLASER gives `scan T r1..r180` at its truth record's time,
+  the ranges copied as written, `nan` where the log says no return (81.83 m, or any range
+  >= 81 m). RANGE_MAX defaults to 30 m (the longest return in the log is 25.4 m) and SIGMA to
+  0.03 m (a declared value, not a measurement). Still no `wall` records: the map is a
+  separate file (`odoerr map grid-from-carmen` then `odoerr map import`, passed to replay
+  with --map). Note that such a map is built from the very corrected poses that serve as
+  truth here, so a pose error against that truth is partly circular (the map and the truth
+  share the SLAM system's errors).
 - time: the CARMEN ipc timestamps go backwards in places (622 times over the lines used,
   by up to 0.9 s), often repeat the previous stamp, and the anchor lines carry 0 or
   garbage (1e-42). So the written time is synthetic, built in file order over the ODOM
@@ -93,6 +103,9 @@ TICK_M = 2 * math.pi * WHEEL_RADIUS_M / TICKS_PER_REV
 INIT_SIGMA = (0.01, 0.01, 0.01)
 FIX_SIGMA = (0.03, 0.03, 0.02)
 TIME_STEP_MIN = 0.001      # s, the synthetic clock's smallest step
+NO_RETURN_M = 81.0         # FLASER ranges at or above this (81.83) mean no return
+BEAM_MIN = -math.pi / 2    # first FLASER beam (rad, robot frame)
+BEAM_STEP = math.pi / 180  # one degree per beam (measured: docs/map-format.md)
 ANCHOR_TOL = 1e-4          # m / rad: anchor ODOM must repeat the FLASER pose
 
 INT_RE = re.compile(r"^\d+$")
@@ -153,9 +166,15 @@ def parse_flaser(f, where):
 
 
 class Converter:
-    def __init__(self, max_scans, fix_every):
+    def __init__(self, max_scans, fix_every, scans=False, range_max=30.0, range_sigma=0.03):
         self.max_scans = max_scans
         self.fix_every = fix_every
+        self.with_scans = scans
+        self.range_max = range_max
+        self.range_sigma = range_sigma
+        self.beams = None
+        self.no_returns = 0
+        self.returns = 0
         self.body = []
         self.scans = 0
         self.t = None               # last written time
@@ -218,6 +237,23 @@ class Converter:
         self.max_dth = max(self.max_dth, abs(dth))
         self.t_end = t
 
+    def scan_record(self, f, t, where):
+        n = int(f[1])
+        if self.beams is None:
+            self.beams = n
+        elif n != self.beams:
+            raise InputError(f"{where}: FLASER with {n} beams, the first one had {self.beams}: "
+                             f"one odolog `laser` record cannot describe both")
+        out = []
+        for tok in f[2:2 + n]:
+            if float(tok) >= NO_RETURN_M:
+                out.append("nan")
+                self.no_returns += 1
+            else:
+                out.append(tok)
+                self.returns += 1
+        self.body.append(f"scan {t:.6f} " + " ".join(out))
+
     def run(self, data, path):
         state = "prefix"          # prefix -> (scan -> anchor -> segment)*
         last_odom = None          # (pose, ts_text, line) of the last raw ODOM line
@@ -273,6 +309,8 @@ class Converter:
                 else:
                     t = self.t      # the time of the ODOM line just before
                 self.body.append(f"truth {t:.6f} {x:.6f} {y:.6f} {th:.6f}")
+                if self.with_scans:
+                    self.scan_record(f, t, where)
                 if self.fix_every > 0 and k > 0 and k % self.fix_every == 0:
                     self.body.append(f"pose {t:.6f} {x:.6f} {y:.6f} {th:.6f} "
                                      f"{FIX_SIGMA[0]:g} {FIX_SIGMA[1]:g} {FIX_SIGMA[2]:g}")
@@ -294,8 +332,12 @@ class Converter:
         w("# enc: raw odometry sub-steps turned into the ticks of an equivalent differential drive")
         w("#      (d = 0.33 m, r = 0.0825 m, 4096 ticks/rev; mid-point model; sideways part dropped)")
         w("# truth: SLAM-corrected FLASER poses (a SLAM result, not motion capture)")
-        w("# No laser/scan/wall records: there is no known segment map of this building, and one")
-        w("# traced from the corrected trajectory would make the truth circular.")
+        if self.with_scans:
+            w("# scan: the FLASER ranges (nan = no return); no wall records: the map is a separate file")
+            w("#       (odoerr map grid-from-carmen + odoerr map import), built from the corrected poses,")
+            w("#       so scoring against the truth below is partly circular (shared SLAM errors).")
+        else:
+            w("# No laser/scan/wall records (use --scans for the laser; the map is a separate file).")
         w("meta source carmen intel-corrected")
         w("meta credit recorded by Dirk Haehnel (Intel Research Lab, Seattle); distributed by Radish, "
           "the Robotics Data Set Repository; SLAM-corrected copy from github.com/acschaefer/ple "
@@ -316,10 +358,15 @@ class Converter:
               f"sigma {FIX_SIGMA[0]:g} m {FIX_SIGMA[2]:g} rad")
         else:
             w("meta pose_fixes none")
+        if self.with_scans:
+            w(f"meta scans_written {self.scans} scans of {self.beams} beams: {self.returns} returns, "
+              f"{self.no_returns} no-return beams written as nan")
         w("drive diff")
         w(f"param wheel_radius_m {WHEEL_RADIUS_M:g}")
         w(f"param ticks_per_rev {TICKS_PER_REV}")
         w(f"param wheelbase_m {WHEELBASE_M:g}")
+        if self.with_scans:
+            w(f"laser {self.beams} {BEAM_MIN:.9f} {BEAM_STEP:.9f} {self.range_max:g} {self.range_sigma:g} 0 0 0")
         w(f"init {x:.6f} {y:.6f} {th:.6f} {INIT_SIGMA[0]:g} {INIT_SIGMA[1]:g} {INIT_SIGMA[2]:g}")
         return "\n".join(h + self.body) + "\n"
 
@@ -333,14 +380,22 @@ def main(argv=None):
                     help="stop after the N-th processed scan (default: all)")
     ap.add_argument("--fix-every", type=int, default=0, metavar="N",
                     help="a pose fix at every N-th scan (default 0: none)")
+    ap.add_argument("--scans", action="store_true",
+                    help="also write the laser record and a scan record per FLASER")
+    ap.add_argument("--range-max", type=float, default=30.0, metavar="M",
+                    help="the laser record's range_max (m), default 30 (with --scans)")
+    ap.add_argument("--range-sigma", type=float, default=0.03, metavar="S",
+                    help="the laser record's range noise std (m), default 0.03 (with --scans)")
     a = ap.parse_args(argv)
+    if not (a.range_max > 0 and a.range_sigma > 0):
+        ap.error("--range-max and --range-sigma must be > 0")
     if a.max_scans is not None and a.max_scans < 1:
         ap.error("--max-scans must be >= 1")
     if a.fix_every < 0:
         ap.error("--fix-every must be >= 0")
     try:
         data, digest = read_text(a.log)
-        conv = Converter(a.max_scans, a.fix_every)
+        conv = Converter(a.max_scans, a.fix_every, a.scans, a.range_max, a.range_sigma)
         conv.run(data, a.log)
         write_atomic(a.out, conv.text(digest, a.max_scans))
     except InputError as e:

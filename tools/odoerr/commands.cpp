@@ -5,6 +5,7 @@ namespace odoerr {
 void registerCommands(CLI::App& app, cli::Commands& cmds) {
   registerSimCommands(app, cmds);
   registerMapCompileCommand(app, cmds);
+  registerMapCommands(app, cmds);
 }
 
 }  // namespace odoerr

@@ -13,5 +13,7 @@ void registerCommands(CLI::App& app, cli::Commands& cmds);
 void registerSimCommands(CLI::App& app, cli::Commands& cmds);
 /// map compile (cmd_map_compile.cpp).
 void registerMapCompileCommand(CLI::App& app, cli::Commands& cmds);
+/// map import, render, grid-from-carmen (cmd_map.cpp; the work is tools/map/odoerr_map.py).
+void registerMapCommands(CLI::App& app, cli::Commands& cmds);
 
 }  // namespace odoerr
