@@ -179,10 +179,17 @@ template <typename S, bool kFenced>
 RayHit<S> walkGrid(const MapTables<S>& m, S px, S py, S ux, S uy, S min_range, S far, S t0) {
   const GridSpec<S>& g = m.grid;
   Nearest<S> best{far};
-  int ix = static_cast<int>((px + t0 * ux - g.x0) * g.inv_cell);
-  int iy = static_cast<int>((py + t0 * uy - g.y0) * g.inv_cell);
-  ix = ix < 0 ? 0 : (ix >= g.nx ? g.nx - 1 : ix);
-  iy = iy < 0 ? 0 : (iy >= g.ny ? g.ny - 1 : iy);
+  // The start in cell units, its cell, and its place within the cell (0..1).
+  const S gx = (px + t0 * ux - g.x0) * g.inv_cell;
+  const S gy = (py + t0 * uy - g.y0) * g.inv_cell;
+  int ix = static_cast<int>(gx);
+  int iy = static_cast<int>(gy);
+  if constexpr (!kFenced) {  // inside the fence the start is inside the grid
+    ix = ix < 0 ? 0 : (ix >= g.nx ? g.nx - 1 : ix);
+    iy = iy < 0 ? 0 : (iy >= g.ny ? g.ny - 1 : iy);
+  }
+  const S fx = gx - S(ix);
+  const S fy = gy - S(iy);
   // Distances along the ray to the next vertical / horizontal cell border, and between
   // borders (infinite along an axis the ray does not move on).
   const S big = S(1e30);
@@ -190,15 +197,19 @@ RayHit<S> walkGrid(const MapTables<S>& m, S px, S py, S ux, S uy, S min_range, S
   S t_max_y = big;
   S dt_x = big;
   S dt_y = big;
-  if (ux != S(0)) {
-    const S inv = S(1) / ux;
-    t_max_x = (g.x0 + S(ix + (ux > S(0) ? 1 : 0)) * g.cell - px) * inv;
-    dt_x = g.cell * (inv < S(0) ? -inv : inv);
+  if (ux > S(0)) {
+    dt_x = g.cell / ux;
+    t_max_x = dt_x * (S(1) - fx);
+  } else if (ux < S(0)) {
+    dt_x = -g.cell / ux;
+    t_max_x = dt_x * fx;
   }
-  if (uy != S(0)) {
-    const S inv = S(1) / uy;
-    t_max_y = (g.y0 + S(iy + (uy > S(0) ? 1 : 0)) * g.cell - py) * inv;
-    dt_y = g.cell * (inv < S(0) ? -inv : inv);
+  if (uy > S(0)) {
+    dt_y = g.cell / uy;
+    t_max_y = dt_y * (S(1) - fy);
+  } else if (uy < S(0)) {
+    dt_y = -g.cell / uy;
+    t_max_y = dt_y * fy;
   }
   const int step_x = ux > S(0) ? 1 : -1;
   const int step_y = uy > S(0) ? g.nx : -g.nx;
