@@ -18,7 +18,7 @@ import subprocess
 import sys
 import tempfile
 
-BEAMS = [0, 90, 48, 36, 24, 12, 6]
+BEAMS = [0, 90, 48, 36, 24, 20, 12, 6]
 
 
 def run(cmd):
