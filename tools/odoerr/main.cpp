@@ -209,6 +209,8 @@ int main(int argc, char** argv) {
   double rp_param_sigma = 0;
   replay->add_option("--param-sigma", rp_param_sigma, "prior sigma of the systematic parameters (relative; default 0.2, the paper's)")
       ->check(CLI::PositiveNumber);
+  bool rp_order = false;
+  replay->add_flag("--order-beams", rp_order, "fuse each scan's beams most consistent with the prior first (robust with a wide heading prior; two casts a beam)");
   replay->add_option("--gate-nis", rp_gate, "innovation gate on the NIS (default 25: 5 sigma)")->check(CLI::PositiveNumber);
 
   cli::Commands commands;
@@ -257,6 +259,7 @@ int main(int argc, char** argv) {
     if (rp_range_sigma > 0) log.laser.sigma = rp_range_sigma;
     ro.gate_nis = rp_gate;
     ro.param_sigma = rp_param_sigma;
+    ro.order_beams = rp_order;
     ReplaySummary sum;
     if (!replayOdolog(log, ro, &sum, &err)) {
       std::fprintf(stderr, "odoerr replay: %s\n", err.c_str());
@@ -265,6 +268,9 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "odoerr replay: %zu cycles, %zu scans, %zu beams used (%zu gated), mean NIS %.3f",
                  sum.cycles, sum.scans, sum.beams_used, sum.beams_gated, sum.nis_mean);
     if (sum.pose_rmse_m >= 0) std::fprintf(stderr, ", pose RMSE %.4f m", sum.pose_rmse_m);
+    if (sum.pose_rmse_at_records_m >= 0) {
+      std::fprintf(stderr, " (%.4f m at the %zu truth records)", sum.pose_rmse_at_records_m, sum.truth_records_scored);
+    }
     std::fprintf(stderr, "; wrote %s/\n", rp_out.c_str());
     for (const auto& p : sum.params) std::printf("%-10s %.6g +- %.3g\n", p.name.c_str(), p.value, p.sigma);
     return 0;

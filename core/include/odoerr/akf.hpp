@@ -52,6 +52,13 @@ struct AkfConfig {
   S max_incidence_rad = S(75.0 / 180.0) * kPi<S>;
   /// Gate on the normalised innovation squared (nu^2 / S) of one beam: 25 = 5 sigma.
   S gate_nis = S(25);
+  /// Fuse a scan's beams in the order of their NIS at the prior mean, most consistent
+  /// first, instead of in beam order. In a linear filter the order does not matter; with a
+  /// wide heading prior (a real robot's odometry, scans every half metre) the first beams
+  /// fused move the state, and in beam order one wrongly associated beam can move it far
+  /// enough that the good beams after it are gated. Costs a second ray cast per beam:
+  /// a host option (odoerr replay --order-beams), off in the firmware.
+  bool order_by_prior_nis = false;
 };
 
 /// Per-scan summary for statistics.
@@ -297,7 +304,7 @@ class Akf {
     const int phase = scan_phase_;
     if (stride > 1) scan_phase_ = phase + 1 < stride ? phase + 1 : 0;
     const S range_max = laser.config().range_max;
-    for (int k = 0; k < laser.used(); ++k) {
+    auto beamOfSlot = [&](int k) {
       int i = k;
       if (stride > 1) {
         i = laser.slotBeam(k, phase);
@@ -305,6 +312,12 @@ class Akf {
           i = laser.slotBeam(k, phase + j < stride ? phase + j : phase + j - stride);
         }
       }
+      return i;
+    };
+    int order[MaxBeams];
+    if (cfg_.order_by_prior_nis) orderByPriorNis(map, laser, ranges, c, sn, beamOfSlot, order);
+    for (int k = 0; k < laser.used(); ++k) {
+      const int i = cfg_.order_by_prior_nis ? order[k] : beamOfSlot(k);
       S nis = S(0);
       S dth = S(0);
       constexpr bool kObserved = !std::is_same_v<std::decay_t<Observer>, NoObserver>;
@@ -432,6 +445,46 @@ class Akf {
   /// A state held constant: its variance is exactly zero and so is its gain (a parameter
   /// fixed at a value, e.g. an effect a diagnosis holds). The update leaves it untouched.
   bool heldState(int j, S pht_j) const { return p_(j, j) == S(0) && pht_j == S(0); }
+
+  /// The selected beams of a scan (beamOfSlot(k), k < laser.used()) sorted by their NIS
+  /// at the prior mean, smallest first; beams that cannot be predicted go last, in slot
+  /// order (their update refuses and counts them as before).
+  template <typename MapT, int MaxBeams, typename BeamOfSlot>
+  void orderByPriorNis(const MapT& map, const LaserGeometry<S, MaxBeams>& laser, const S* ranges, S c, S sn,
+                       const BeamOfSlot& beamOfSlot, int* order) const {
+    S key[MaxBeams];
+    const int n = laser.used();
+    const S sigma2 = laser.config().sigma * laser.config().sigma;
+    for (int k = 0; k < n; ++k) {
+      const int i = beamOfSlot(k);
+      order[k] = i;
+      key[k] = std::numeric_limits<S>::max();
+      S predicted = S(0);
+      S hf[kHCols];
+      if (isFinite(ranges[i]) && ranges[i] > S(0) && ranges[i] <= laser.config().range_max &&
+          predictBeam(map, laser, i, c, sn, &predicted, hf) == Status::kOk) {
+        S v = sigma2;  // H P H^T + R from the upper triangle (the lower may be stale mid-cycle)
+        for (int a = 0; a < kHCols; ++a) {
+          v += hf[a] * p_(a, a) * hf[a];
+          for (int b = a + 1; b < kHCols; ++b) v += S(2) * hf[a] * p_(a, b) * hf[b];
+        }
+        const S nu = ranges[i] - predicted;
+        if (v > S(0)) key[k] = nu * nu / v;
+      }
+    }
+    // Insertion sort: stable, in place, no allocation (a scan has at most MaxBeams beams).
+    for (int k = 1; k < n; ++k) {
+      const S kk = key[k];
+      const int ik = order[k];
+      int j = k - 1;
+      for (; j >= 0 && key[j] > kk; --j) {
+        key[j + 1] = key[j];
+        order[j + 1] = order[j];
+      }
+      key[j + 1] = kk;
+      order[j + 1] = ik;
+    }
+  }
 
   /// Columns of a beam's H that can be non-zero.
   static constexpr int kHCols = Model::kHasMeasurementEffects ? N : 3;

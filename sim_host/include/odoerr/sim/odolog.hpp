@@ -109,6 +109,8 @@ struct TruthCursor {
     *th = wrapAngle(lo.theta + w * wrapAngle(hi.theta - lo.theta));
     return true;
   }
+  /// Whether the last at(t) fell on a truth record rather than between two.
+  bool onRecord(double t) const { return !v.empty() && v[i].t == t; }
 };
 
 /// Parses an odolog v1 text. On failure returns false and sets *error to

@@ -30,6 +30,8 @@ struct ReplayOptions {
   double gate_nis = 0;
   /// Prior sigma of the systematic parameters (relative); 0: the paper's (0.2).
   double param_sigma = 0;
+  /// Fuse each scan's beams most consistent first (AkfConfig::order_by_prior_nis).
+  bool order_beams = false;
 };
 
 struct ReplayParam {
@@ -42,6 +44,10 @@ struct ReplaySummary {
   std::size_t beams_used = 0, beams_gated = 0, beams_skipped = 0;
   double nis_mean = 0;
   double pose_rmse_m = -1, heading_rmse_rad = -1;  ///< -1: no truth in the log
+  /// The same at the truth records' own times only (the last estimate at each; no
+  /// interpolation between records): the figure for sparse truth.
+  double pose_rmse_at_records_m = -1, heading_rmse_at_records_rad = -1;
+  std::size_t truth_records_scored = 0;
   std::vector<ReplayParam> params;                 ///< final systematic then K
 };
 
