@@ -161,6 +161,7 @@ class Engine {
     std::vector<HeldBeam> ho_beams;  ///< kEval: their beams
     std::vector<ScanRec> scans;
     std::vector<BeamRec> beams;
+    std::vector<PoseFixRec> fixes;  ///< record: every fused pose fix's innovation
     std::vector<TrajRec> traj;
     std::vector<PostPose> post;       ///< residuals: the posterior at every fused measurement
     std::vector<PostBeam> post_beams;  ///< residuals: the beams of the fused scans at their posterior
@@ -462,6 +463,28 @@ class Engine {
           const double nll = ok ? 0.5 * (3 * std::log(2 * kPi<double>) + logdet + std::min(nis, 3 * kCap)) / 3 : 0.0;
           out.ho_beams.push_back({-(static_cast<long long>(ev.pose) + 1), held_scan, ok ? std::min(nis, 3 * kCap) / 3 : 0.0,
                                   nll, (nu[0] * nu[0] + nu[1] * nu[1]) / 2, ok, ok && nis < 3 * kCap});
+        }
+        if (spec.record && use && !evaluate && std::isfinite(nis)) {
+          PoseFixRec fr{};
+          const auto& ctx = akf.motionContext();
+          fr.t = ev.t;
+          fr.dist = dist;
+          fr.x = xm[0];
+          fr.y = xm[1];
+          fr.th = xm[2];
+          for (int i = 0; i < 3; ++i) fr.nu[i] = nu[i];
+          for (int i = 0; i < 3; ++i)
+            for (int k = 0; k < 3; ++k) fr.s[3 * i + k] = sm(i, k);
+          fr.nis = nis;
+          fr.v = std::hypot(akf.velocityX(), akf.velocityY()) * (ctx.last_sign < 0 ? -1.0 : 1.0);
+          fr.w = akf.turnRate();
+          double tx, ty, tth;
+          if (truth.at(ev.t, &tx, &ty, &tth)) {
+            const Eigen::Vector3d e(xm[0] - tx, xm[1] - ty, wrapAngle(xm[2] - tth));
+            const Eigen::Matrix3d pp = akf.covariance().template topLeftCorner<3, 3>();
+            fr.nees = e.dot(pp.ldlt().solve(e));
+          }
+          out.fixes.push_back(fr);
         }
         const PoseFix<S> fix{q.x, q.y, q.theta, q.sx, q.sy, q.stheta};
         if (evaluate) (void)fork->measureStep(nullptr, typename Est::AkfT::NoObserver{});
