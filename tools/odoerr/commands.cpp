@@ -5,6 +5,8 @@ namespace odoerr {
 void registerCommands(CLI::App& app, cli::Commands& cmds) {
   registerSimCommands(app, cmds);
   registerMapCompileCommand(app, cmds);
+  registerEvaluateCommands(app, cmds);
+  registerImportCommands(app, cmds);
 }
 
 }  // namespace odoerr

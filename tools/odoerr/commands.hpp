@@ -13,5 +13,9 @@ void registerCommands(CLI::App& app, cli::Commands& cmds);
 void registerSimCommands(CLI::App& app, cli::Commands& cmds);
 /// map compile (cmd_map_compile.cpp).
 void registerMapCompileCommand(CLI::App& app, cli::Commands& cmds);
+/// evaluate, umbmark (cmd_evaluate.cpp).
+void registerEvaluateCommands(CLI::App& app, cli::Commands& cmds);
+/// import optiodom|carmen (cmd_import.cpp).
+void registerImportCommands(CLI::App& app, cli::Commands& cmds);
 
 }  // namespace odoerr

@@ -148,6 +148,12 @@ class Engine {
     /// chooses them (make_scored) and every other run scores the same set.
     const std::vector<std::uint8_t>* scored = nullptr;
     std::vector<std::uint8_t>* make_scored = nullptr;
+    /// Carried from a previous log (odoerr evaluate): the parameter block (drive and
+    /// effects, index >= kD) of the state and covariance, and K with its covariance; the
+    /// pose is re-initialised from the log's init. Null: the priors above.
+    const StateVec* carry_x = nullptr;
+    const StateMat* carry_p = nullptr;
+    const KMat* carry_pk = nullptr;
   };
   struct RunOut {
     double loglik = 0;
@@ -155,6 +161,7 @@ class Engine {
     StateVec x;
     StateMat p;
     KVec k;
+    KMat pk;  ///< K's covariance at the end
     double ho_pos_sq = 0, ho_head_sq = 0;
     long ho_nt = 0;                  ///< kEval: truth samples at the predicted measurements
     std::vector<HeldEvent> ho_scans;  ///< kEval: every predicted held-out scan or fix
@@ -321,8 +328,15 @@ class Engine {
       x0[kE + i] = spec.eff_val[i];
       sig[kE + i] = spec.eff_sig[i];
     }
-    const KMat pk0 = (spec.k * setup.nonsys_rel_sigma).cwiseAbs2().asDiagonal();
-    est.init(x0, sig.cwiseAbs2().asDiagonal(), spec.k, pk0);
+    KMat pk0 = (spec.k * setup.nonsys_rel_sigma).cwiseAbs2().asDiagonal();
+    StateMat p0 = sig.cwiseAbs2().asDiagonal();
+    if (spec.carry_x != nullptr && spec.carry_p != nullptr) {
+      constexpr int np = M::kStates - kD;
+      x0.template tail<np>() = spec.carry_x->template tail<np>();
+      p0.template bottomRightCorner<np, np>() = spec.carry_p->template bottomRightCorner<np, np>();
+    }
+    if (spec.carry_pk != nullptr) pk0 = *spec.carry_pk;
+    est.init(x0, p0, spec.k, pk0);
     est.freezeNonSystematic(!spec.of_free);
 
     RunOut out;
@@ -530,6 +544,7 @@ class Engine {
     out.x = est.akf().state();
     out.p = est.akf().covariance();
     out.k = est.of().estimate();
+    out.pk = est.of().covariance();
     return out;
   }
 
