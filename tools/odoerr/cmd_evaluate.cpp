@@ -80,6 +80,11 @@ int runEvaluate(const std::vector<std::string>& cal_paths, const std::vector<std
   json tests = json::array();
   double pred_sum = 0;
   long pred_n = 0;
+  // RPE and predicted growth against path length (the figures of docs/real-data.md)
+  const std::vector<double> curve = {0.5, 1, 2, 3, 4, 5, 6, 8};
+  std::vector<std::vector<Pooled>> by_len(curve.size(), std::vector<Pooled>(sets.size()));
+  std::vector<double> curve_pred(curve.size(), 0.0);
+  std::vector<long> curve_n(curve.size(), 0);
   for (const sim::Odolog& log : test_logs) {
     std::string kind;
     const std::vector<sim::Pose2> ref = sim::referenceOf(log, &kind);
@@ -90,6 +95,10 @@ int runEvaluate(const std::vector<std::string>& cal_paths, const std::vector<std
     for (std::size_t s = 0; s < sets.size(); ++s) {
       std::vector<sim::Pose2> odo;
       if (!sim::integrateOdometry(log, sets[s].second, times, &odo, &err)) return fail(err);
+      for (std::size_t l = 0; l < curve.size(); ++l) {
+        const auto segs = sim::rpeSegments(ref, odo, curve[l]);
+        by_len[l][s].segs.insert(by_len[l][s].segs.end(), segs.begin(), segs.end());
+      }
       for (int l = 0; l < 2; ++l) {
         const auto segs = sim::rpeSegments(ref, odo, lengths[l]);
         pooled[l][s].segs.insert(pooled[l][s].segs.end(), segs.begin(), segs.end());
@@ -103,6 +112,13 @@ int runEvaluate(const std::vector<std::string>& cal_paths, const std::vector<std
       const auto n = sim::rpeSegments(ref, ref, 5.0).size();
       pred_sum += pred * pred * double(n);
       pred_n += static_cast<long>(n);
+    }
+    for (std::size_t l = 0; l < curve.size(); ++l) {
+      const double pl = sim::predictedRpeSigma(log, cal.c, cal.k_w, ref, curve[l]);
+      if (pl < 0) continue;
+      const auto n = sim::rpeSegments(ref, ref, curve[l]).size();
+      curve_pred[l] += pl * pl * double(n);
+      curve_n[l] += static_cast<long>(n);
     }
     tests.push_back(row);
   }
@@ -121,7 +137,7 @@ int runEvaluate(const std::vector<std::string>& cal_paths, const std::vector<std
     if (!has_user) r["constants"] = nullptr;
     j["rpe"][names[l]] = r;
   }
-  const json& cal5 = j["rpe"]["5m"]["calibrated"];
+  const json cal5 = j["rpe"]["5m"]["calibrated"];  // a copy: ordered_json moves its members on insertion
   j["growth"] = {{"predicted_sigma_5m_m", pred_n > 0 ? json(std::sqrt(pred_sum / double(pred_n))) : json(nullptr)},
                  {"observed_rmse_5m_m", cal5["trans_rmse_m"]},
                  {"what", "predicted: the position sigma after 5 m of path that the calibrated K_w gives odometry "
@@ -130,6 +146,14 @@ int runEvaluate(const std::vector<std::string>& cal_paths, const std::vector<std
   if (j["growth"]["predicted_sigma_5m_m"].is_number() && cal5["trans_rmse_m"].is_number())
     j["growth"]["ratio_observed_to_predicted"] =
         cal5["trans_rmse_m"].get<double>() / j["growth"]["predicted_sigma_5m_m"].get<double>();
+  json curve_j = json::array();
+  for (std::size_t l = 0; l < curve.size(); ++l) {
+    json row = {{"length_m", curve[l]}};
+    for (std::size_t s = 0; s < sets.size(); ++s) row[sets[s].first] = sim::rpeJson(by_len[l][s].segs);
+    row["predicted_sigma_m"] = curve_n[l] > 0 ? json(std::sqrt(curve_pred[l] / double(curve_n[l]))) : json(nullptr);
+    curve_j.push_back(row);
+  }
+  j["rpe_by_length"] = curve_j;
   j["test_logs"] = tests;
   j["calibration_logs"] = cal_paths;
   j["rpe_definition"] = "evo's relative pose error with delta in metres of the reference path; a segment starts "
