@@ -24,7 +24,8 @@ void registerImportCommands(CLI::App& app, cli::Commands& cmds) {
   for (const Importer& im : kImporters) {
     CLI::App* sub = imp->add_subcommand(im.name, im.help);
     sub->allow_extras();
-    sub->prefix_command();  // everything after the name goes to the script, --help too
+    sub->prefix_command();  // everything after the name goes to the script,
+    sub->set_help_flag();   // --help too (the script's own help)
     const std::string script = std::string(ODOERR_IMPORT_DIR) + "/" + im.script;
     cmds.add(sub, [sub, script]() {
       const std::vector<std::string> args = sub->remaining();
