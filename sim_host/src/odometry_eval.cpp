@@ -5,6 +5,7 @@
 
 #include <Eigen/Dense>
 
+#include "odoerr/effects/features.hpp"
 #include "odoerr/motion.hpp"
 #include "odoerr/sim/evaluate.hpp"
 
@@ -62,12 +63,32 @@ bool track(const Odolog& log, const OdoConstants& c, Track* tr, std::string* err
   tr->th.push_back(th);
   tr->dr.push_back(0);
   tr->dl.push_back(0);
+  MotionContext<double> ctx;
   for (std::size_t k = 1; k < log.enc.size(); ++k) {
-    const double dr = c.delta_R * double(log.enc[k].a - log.enc[k - 1].a) / dc.ticks_a;
-    const double dl = c.delta_L * double(log.enc[k].b - log.enc[k - 1].b) / dc.ticks_b;
-    const double rho = 0.5 * (dr + dl), dth = (dr - dl) / b, m = th + 0.5 * dth;
-    x += rho * std::cos(m);
-    y += rho * std::sin(m);
+    const double ea = double(log.enc[k].a - log.enc[k - 1].a) / dc.ticks_a;
+    const double eb = double(log.enc[k].b - log.enc[k - 1].b) / dc.ticks_b;
+    const double dr = c.delta_R * ea, dl = c.delta_L * eb;
+    double rho = 0.5 * (dr + dl), dth = (dr - dl) / b, side = 0;
+    if (!c.terms.empty()) {  // the feature terms, as the core's FeatureMotion applies them
+      ctx.dt = log.enc[k].t - log.enc[k - 1].t;
+      ctx.x = x;
+      ctx.y = y;
+      ctx.setHeading(th);
+      const double r0 = rho, t0 = dth;
+      for (const OdoTerm& term : c.terms) {
+        const auto v = effects::motionFeature(static_cast<effects::MotionFeature>(term.feature), r0, t0, ctx,
+                                              dc.wheelbase, 0.0, 0.0);
+        double dir[3];
+        effects::motionTargetDirection(static_cast<effects::MotionTarget>(term.target), ctx, dc.wheelbase, dir);
+        rho += term.coef * v.f * dir[0];
+        dth += term.coef * v.f * dir[1];
+        side += term.coef * v.f * dir[2];
+      }
+      ctx.advance(r0, 0.5 * (ea + eb));
+    }
+    const double m = th + 0.5 * dth;
+    x += rho * std::cos(m) - side * std::sin(m);
+    y += rho * std::sin(m) + side * std::cos(m);
     th += dth;
     tr->t.push_back(log.enc[k].t);
     tr->x.push_back(x);

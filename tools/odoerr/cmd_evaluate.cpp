@@ -47,7 +47,9 @@ bool parseConstants(const std::string& s, sim::OdoConstants* c, std::string* err
     *err = "--constants takes three values delta_R,delta_L,delta_d (got " + std::to_string(v.size()) + ")";
     return false;
   }
-  *c = {v[0], v[1], v[2]};
+  c->delta_R = v[0];
+  c->delta_L = v[1];
+  c->delta_d = v[2];
   return true;
 }
 

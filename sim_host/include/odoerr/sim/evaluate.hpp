@@ -37,9 +37,19 @@ std::vector<RpeSegment> rpeSegments(const std::vector<Pose2>& ref, const std::ve
 /// Mean and RMSE of translation and rotation over segments (null without segments).
 nlohmann::ordered_json rpeJson(const std::vector<RpeSegment>& segs);
 
-/// The drive constants of odometry: wheel scales and wheelbase scale on the log's nominal.
+/// A motion feature term of the odometry (a discovered form, `feature:NAME@TARGET`):
+/// increment += coef * feature * target direction (core/include/odoerr/effects/features.hpp).
+struct OdoTerm {
+  int feature = 0, target = 0;  ///< effects::MotionFeature, effects::MotionTarget
+  double coef = 0;
+  std::string token;
+};
+
+/// The drive constants of odometry: wheel scales and wheelbase scale on the log's nominal,
+/// and any feature terms.
 struct OdoConstants {
   double delta_R = 1, delta_L = 1, delta_d = 1;
+  std::vector<OdoTerm> terms;
 };
 
 /// Dead reckoning of a diff-drive log's encoders from its init pose with constants c,
@@ -68,7 +78,7 @@ struct Calibration {
 };
 
 /// Runs the estimator (diagnose's engine, drive parameters and K free, the `with` catalogue
-/// effects free) over the logs in order: parameters and covariance (K's too) carried from
+/// effects and motion feature terms free) over the logs in order: parameters and covariance (K's too) carried from
 /// one log to the next, the pose re-initialised from each log's init. Diff drive only.
 bool calibrateOnLogs(const std::vector<Odolog>& logs, const std::vector<std::string>& with, Calibration* out,
                      std::string* error);
