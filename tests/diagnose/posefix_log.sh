@@ -34,6 +34,8 @@ assert t["verdict_rests_on"] == ["pose_fixes"], t["verdict_rests_on"]
 for k in ("nis_mean", "nis_band", "ljung_box", "scans_outside_band_frac", "windowed_nis_outside_frac", "pose_correction"):
     assert t[k] is None, (k, t[k])
 assert "no laser" in t["laser_note"]
+assert j["unexplained"]["beam"]["sse_cv_model"] is None and j["map_misfit"]["t_critical"] is None
+assert j["bins"]["turn_rate"] is None and j["cusum"]["alarms"] == []
 p = t["pose_fixes"]
 assert p["fixes"] >= 50, p["fixes"]
 lo, hi = p["nis_band"]
