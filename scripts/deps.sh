@@ -7,6 +7,7 @@ PACKAGES=(
   cmake make g++            # build
   libeigen3-dev             # core
   libcli11-dev nlohmann-json3-dev   # odoerr tool
+  libboost-dev              # Boost.Math (header-only): exact chi-square quantiles
   libgtest-dev libbenchmark-dev     # tests, benchmarks
   python3 python3-matplotlib python3-numpy python3-jinja2  # figures, the report
 )

@@ -14,6 +14,7 @@
 #include "diagnose/heldout.hpp"
 #include "diagnose/map_misfit.hpp"
 #include "diagnose/model_search.hpp"
+#include "diagnose/physical.hpp"
 #include "diagnose/ranking.hpp"
 
 namespace odoerr::sim {
@@ -93,6 +94,17 @@ bool diagnoseDrive(const Odolog& log, const DiagnoseOptions& opt, json* out, std
   ref0.scored = &scored;
   Ranking<DriveT> rank(en, opt.threads);
   rank.run(ref0, l0, n_innov);
+  // A named effect must be physically possible (docs/diagnostics.md, "Physical bounds").
+  for (int e : rank.named()) {
+    const Candidate& c = rank.candidates()[static_cast<std::size_t>(e)];
+    for (int i = 0; i < fx[e].n && i < c.est.size(); ++i) {
+      const std::string why = physicalViolation(fx[e].name, i, c.est[i], c.sig[i]);
+      if (!why.empty()) {
+        rank.unname(e, why);
+        break;
+      }
+    }
+  }
   json ranking_other = nullptr;  // the ranking with the region beams, when they were left out
   if (exclude) {
     RunSpec ref_all = ref0;
@@ -175,11 +187,12 @@ bool diagnoseDrive(const Odolog& log, const DiagnoseOptions& opt, json* out, std
   for (json& row : ranking)
     for (std::size_t i = 0; i < named0.size(); ++i)
       if (row["effect"] == fx[named0[i]].name) row["explains"] = explains[i];
-  const json excitation = excitationReport(en, base_free, rank.candidates());
+  const json excitation = excitationReport(en, base_free, rank.candidates(), log.has_laser);
 
   // Statistics of the baseline (K held) and the verdict.
+  const bool with_fixes = !log.poses.empty();
   const DriveStats st = computeStats(base.scans, base.beams, base.obs.empty() ? base_free.obs : base.obs,
-                                     log.param("wheel_radius_m", 0.05));
+                                     log.param("wheel_radius_m", 0.05), base.fixes, log.has_laser, with_fixes);
   json tests = st.tests;
   // Parameter NEES against the logged truth (meta truth_param NAME VALUE).
   {
@@ -254,7 +267,7 @@ bool diagnoseDrive(const Odolog& log, const DiagnoseOptions& opt, json* out, std
   j = json::object();
   j["log"] = log.path;
   j["drive"] = log.drive;
-  j["verdict"] = consistent ? "consistent" : "inconsistent";
+  j["verdict"] = !st.has_data ? "undetermined" : consistent ? "consistent" : "inconsistent";
   j["tests"] = tests;
   j["ranking"] = ranking;
   j["heldout"] = heldout;

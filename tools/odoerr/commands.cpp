@@ -6,6 +6,8 @@ void registerCommands(CLI::App& app, cli::Commands& cmds) {
   registerSimCommands(app, cmds);
   registerMapCompileCommand(app, cmds);
   registerMapCommands(app, cmds);
+  registerEvaluateCommands(app, cmds);
+  registerImportCommands(app, cmds);
 }
 
 }  // namespace odoerr

@@ -15,5 +15,9 @@ void registerSimCommands(CLI::App& app, cli::Commands& cmds);
 void registerMapCompileCommand(CLI::App& app, cli::Commands& cmds);
 /// map import, render, grid-from-carmen (cmd_map.cpp; the work is tools/map/odoerr_map.py).
 void registerMapCommands(CLI::App& app, cli::Commands& cmds);
+/// evaluate, umbmark (cmd_evaluate.cpp).
+void registerEvaluateCommands(CLI::App& app, cli::Commands& cmds);
+/// import optiodom|carmen (cmd_import.cpp).
+void registerImportCommands(CLI::App& app, cli::Commands& cmds);
 
 }  // namespace odoerr

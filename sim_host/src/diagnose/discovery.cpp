@@ -103,11 +103,13 @@ json featuresOf(const Residuals& r) {
 }
 
 json designJson(const Selection& s, int units, const char* unit_name, double extra = -1) {
+  const bool data = s.rows > 0;  // no row (a log without laser has no beam rows): null, never 0
   json j = {{unit_name, units},
             {"rows", s.rows},
-            {"sse_cv_model", s.sse_cv_nuisance},
-            {"sse_cv_features", s.sse_cv},
+            {"sse_cv_model", data ? json(s.sse_cv_nuisance) : json(nullptr)},
+            {"sse_cv_features", data ? json(s.sse_cv) : json(nullptr)},
             {"features_explain", s.sse_cv_nuisance > 0 ? json(s.explained()) : json(nullptr)}};
+  if (!data) j["note"] = "no rows: nothing to regress";
   if (extra >= 0) j["segment_s"] = extra;
   return j;
 }

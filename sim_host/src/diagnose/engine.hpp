@@ -148,6 +148,12 @@ class Engine {
     /// chooses them (make_scored) and every other run scores the same set.
     const std::vector<std::uint8_t>* scored = nullptr;
     std::vector<std::uint8_t>* make_scored = nullptr;
+    /// Carried from a previous log (odoerr evaluate): the parameter block (drive and
+    /// effects, index >= kD) of the state and covariance, and K with its covariance; the
+    /// pose is re-initialised from the log's init. Null: the priors above.
+    const StateVec* carry_x = nullptr;
+    const StateMat* carry_p = nullptr;
+    const KMat* carry_pk = nullptr;
   };
   struct RunOut {
     double loglik = 0;
@@ -155,12 +161,14 @@ class Engine {
     StateVec x;
     StateMat p;
     KVec k;
+    KMat pk;  ///< K's covariance at the end
     double ho_pos_sq = 0, ho_head_sq = 0;
     long ho_nt = 0;                  ///< kEval: truth samples at the predicted measurements
     std::vector<HeldEvent> ho_scans;  ///< kEval: every predicted held-out scan or fix
     std::vector<HeldBeam> ho_beams;  ///< kEval: their beams
     std::vector<ScanRec> scans;
     std::vector<BeamRec> beams;
+    std::vector<PoseFixRec> fixes;  ///< record: every fused pose fix's innovation
     std::vector<TrajRec> traj;
     std::vector<PostPose> post;       ///< residuals: the posterior at every fused measurement
     std::vector<PostBeam> post_beams;  ///< residuals: the beams of the fused scans at their posterior
@@ -320,8 +328,15 @@ class Engine {
       x0[kE + i] = spec.eff_val[i];
       sig[kE + i] = spec.eff_sig[i];
     }
-    const KMat pk0 = (spec.k * setup.nonsys_rel_sigma).cwiseAbs2().asDiagonal();
-    est.init(x0, sig.cwiseAbs2().asDiagonal(), spec.k, pk0);
+    KMat pk0 = (spec.k * setup.nonsys_rel_sigma).cwiseAbs2().asDiagonal();
+    StateMat p0 = sig.cwiseAbs2().asDiagonal();
+    if (spec.carry_x != nullptr && spec.carry_p != nullptr) {
+      constexpr int np = M::kStates - kD;
+      x0.template tail<np>() = spec.carry_x->template tail<np>();
+      p0.template bottomRightCorner<np, np>() = spec.carry_p->template bottomRightCorner<np, np>();
+    }
+    if (spec.carry_pk != nullptr) pk0 = *spec.carry_pk;
+    est.init(x0, p0, spec.k, pk0);
     est.freezeNonSystematic(!spec.of_free);
 
     RunOut out;
@@ -463,6 +478,28 @@ class Engine {
           out.ho_beams.push_back({-(static_cast<long long>(ev.pose) + 1), held_scan, ok ? std::min(nis, 3 * kCap) / 3 : 0.0,
                                   nll, (nu[0] * nu[0] + nu[1] * nu[1]) / 2, ok, ok && nis < 3 * kCap});
         }
+        if (spec.record && use && !evaluate && std::isfinite(nis)) {
+          PoseFixRec fr{};
+          const auto& ctx = akf.motionContext();
+          fr.t = ev.t;
+          fr.dist = dist;
+          fr.x = xm[0];
+          fr.y = xm[1];
+          fr.th = xm[2];
+          for (int i = 0; i < 3; ++i) fr.nu[i] = nu[i];
+          for (int i = 0; i < 3; ++i)
+            for (int k = 0; k < 3; ++k) fr.s[3 * i + k] = sm(i, k);
+          fr.nis = nis;
+          fr.v = std::hypot(akf.velocityX(), akf.velocityY()) * (ctx.last_sign < 0 ? -1.0 : 1.0);
+          fr.w = akf.turnRate();
+          double tx, ty, tth;
+          if (truth.at(ev.t, &tx, &ty, &tth)) {
+            const Eigen::Vector3d e(xm[0] - tx, xm[1] - ty, wrapAngle(xm[2] - tth));
+            const Eigen::Matrix3d pp = akf.covariance().template topLeftCorner<3, 3>();
+            fr.nees = e.dot(pp.ldlt().solve(e));
+          }
+          out.fixes.push_back(fr);
+        }
         const PoseFix<S> fix{q.x, q.y, q.theta, q.sx, q.sy, q.stheta};
         if (evaluate) (void)fork->measureStep(nullptr, typename Est::AkfT::NoObserver{});
         (void)est.measureStep(nullptr, typename Est::AkfT::NoObserver{}, use ? &fix : nullptr);
@@ -507,6 +544,7 @@ class Engine {
     out.x = est.akf().state();
     out.p = est.akf().covariance();
     out.k = est.of().estimate();
+    out.pk = est.of().covariance();
     return out;
   }
 

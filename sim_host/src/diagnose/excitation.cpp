@@ -34,7 +34,7 @@ const char* adviceFor(const std::string& name) {
 
 template <template <typename> class DriveT>
 json excitationReport(const Engine<DriveT>& en, const typename Engine<DriveT>::RunOut& base_free,
-                      const std::vector<Candidate>& cand) {
+                      const std::vector<Candidate>& cand, bool has_laser) {
   using En = Engine<DriveT>;
   using Drive = typename En::Drive;
   constexpr int kD = En::kD;
@@ -81,6 +81,11 @@ json excitationReport(const Engine<DriveT>& en, const typename Engine<DriveT>::R
                            {"determined", cand[e].informed[i] && s < f.ref[i] / 3}});
       det = det || (cand[e].informed[i] && s < f.ref[i] / 3);
     }
+    // A measurement effect needs the laser: without one, no drive could show it.
+    if (!det && f.kind == EffectKind::kMeasurement && !has_laser) {
+      for (int i = 0; i < f.n; ++i) ex_params[ex_params.size() - 1 - i]["note"] = "needs a laser; the log has none";
+      continue;
+    }
     if (!det) {
       warnings.push_back("This drive cannot detect " + f.name + " of a typical size (" + std::to_string(f.ref[0]) +
                          "): " + adviceFor(f.name) + ".");
@@ -90,8 +95,8 @@ json excitationReport(const Engine<DriveT>& en, const typename Engine<DriveT>::R
 }
 
 template json excitationReport<SyncDrive>(const Engine<SyncDrive>&, const Engine<SyncDrive>::RunOut&,
-                                          const std::vector<Candidate>&);
+                                          const std::vector<Candidate>&, bool);
 template json excitationReport<DiffDrive>(const Engine<DiffDrive>&, const Engine<DiffDrive>::RunOut&,
-                                          const std::vector<Candidate>&);
+                                          const std::vector<Candidate>&, bool);
 
 }  // namespace odoerr::sim::diag

@@ -18,9 +18,10 @@ namespace odoerr::sim::diag {
 const char* adviceFor(const std::string& name);
 
 /// {"parameters": [...], "warnings": [...]} from the free baseline (drive parameters)
-/// and each candidate's augmented run.
+/// and each candidate's augmented run. Without a laser, no warning names a measurement
+/// effect (no drive could show one).
 template <template <typename> class DriveT>
 nlohmann::ordered_json excitationReport(const Engine<DriveT>& en, const typename Engine<DriveT>::RunOut& base_free,
-                                        const std::vector<Candidate>& cand);
+                                        const std::vector<Candidate>& cand, bool has_laser);
 
 }  // namespace odoerr::sim::diag

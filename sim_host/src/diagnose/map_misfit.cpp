@@ -315,15 +315,17 @@ json mapMisfitJson(const MapMisfit& m, const std::string& grid_csv) {
     }
     walls.push_back({{"wall", i}, {"bins", bins}});
   }
-  return {{"cell_m", m.cell_m},
-          {"wall_bin_m", kWallBinM},
-          {"walls", walls},
-          {"grid", {{"x0", m.x0}, {"y0", m.y0}, {"nx", m.nx}, {"ny", m.ny}}},
-          {"cells_tested", m.tested},
-          {"t_critical", m.t_crit},
-          {"family_alpha", kFamilyAlpha},
-          {"regions", regions},
-          {"grid_csv", grid_csv}};
+  json j = {{"cell_m", m.cell_m},
+            {"wall_bin_m", kWallBinM},
+            {"walls", walls},
+            {"grid", {{"x0", m.x0}, {"y0", m.y0}, {"nx", m.nx}, {"ny", m.ny}}},
+            {"cells_tested", m.tested},
+            {"t_critical", m.tested > 0 ? json(m.t_crit) : json(nullptr)},
+            {"family_alpha", kFamilyAlpha},
+            {"regions", regions},
+            {"grid_csv", grid_csv}};
+  if (m.tested == 0) j["note"] = "no cell with enough beams: nothing tested (a log without laser has no beam)";
+  return j;
 }
 
 bool writeMapCsv(const std::string& dir, const MapMisfit& m, std::string* error) {

@@ -30,6 +30,16 @@ struct ScanRec {
   double sum_norm;  ///< sum of nu / sqrt(S) over its predicted beams
   double nees = -1; ///< pose NEES against truth after the update (-1: no truth)
 };
+/// One fused pose fix (motion capture, UWB, GNSS, a SLAM pose...): its innovation
+/// against the prior, the innovation covariance (prior pose covariance + the fix's),
+/// and the motion at it.
+struct PoseFixRec {
+  double t, dist, x, y, th;  ///< the prior (before the fix)
+  double nu[3];              ///< fix - prior: x, y (world), heading (wrapped)
+  double s[9];               ///< innovation covariance, row-major (x, y, heading)
+  double nis, v, w;
+  double nees = -1;          ///< prior pose NEES against truth (-1: no truth)
+};
 /// One predicted beam (gated ones included).
 struct BeamRec {
   double t;
@@ -45,11 +55,26 @@ struct TrajRec {
 struct DriveStats {
   nlohmann::ordered_json tests, bins, cusum;
   bool consistent = true;
+  bool has_data = true;  ///< some test of the verdict had data (else the verdict is undetermined)
 };
 
 /// Statistics of one replay. obs: the OF's normalised observable residuals per update.
 DriveStats computeStats(const std::vector<ScanRec>& scans, const std::vector<BeamRec>& beams,
                         const std::vector<std::array<double, 2>>& obs, double wheel_radius);
+/// The same with the log's pose fixes. has_laser: the log has a laser, so the laser tests
+/// apply (without one, they are null with a note and stay out of the verdict); has_fixes:
+/// the log has pose records (then tests.pose_fixes holds their tests: the 3-dof NIS with
+/// its chi-square band, whiteness, the along/cross/heading components and their bins).
+DriveStats computeStats(const std::vector<ScanRec>& scans, const std::vector<BeamRec>& beams,
+                        const std::vector<std::array<double, 2>>& obs, double wheel_radius,
+                        const std::vector<PoseFixRec>& fixes, bool has_laser, bool has_fixes);
+
+/// The tests of the pose fixes alone (tests.pose_fixes). Null-valued entries with a note
+/// when there are none. consistent: whether they pass (false when there are none).
+nlohmann::ordered_json poseFixTests(const std::vector<PoseFixRec>& fixes, bool* consistent);
+
+/// Exact chi-square quantile (Boost.Math) for k degrees of freedom, p in (0, 1).
+double chiSquareQuantileExact(double p, double k);
 
 /// scans.csv, beams.csv and trajectory.csv for the report. False with *error.
 bool writeDiagnoseCsv(const std::string& dir, const std::vector<ScanRec>& scans,

@@ -1,0 +1,144 @@
+// odoerr evaluate's calibration: the online estimator (diagnose's engine: the drive
+// parameters, K, the chosen catalogue effects and motion feature terms free) over
+// calibration logs in order, the parameters and their covariance carried from one log to
+// the next, the pose re-initialised from each log's init.
+#include <cmath>
+#include <memory>
+
+#include "diagnose/engine.hpp"
+#include "diagnose/model_search.hpp"
+#include "odoerr/sim/evaluate.hpp"
+
+namespace odoerr::sim {
+
+using json = nlohmann::ordered_json;
+
+namespace {
+
+/// The prior sigma of a feature term's coefficient in the calibration: wide (a drift of
+/// 10 cm per metre, or its equivalent in the feature's unit), as diagnose's fallback does
+/// for a term the regression cannot size.
+constexpr double kFeaturePrior = 0.1;
+
+template <typename Effects>
+bool calibrateImpl(const std::vector<Odolog>& logs, const std::vector<std::string>& with,
+                   const std::vector<diag::Term>& features, Calibration* out, std::string* error) {
+  using En = diag::Engine<DiffDrive, Effects>;
+  constexpr int kD = En::kD;
+  DiagnoseOptions opt;
+  opt.with = with;
+  typename En::StateVec x = En::StateVec::Zero();
+  typename En::StateMat p = En::StateMat::Zero();
+  typename En::KVec k = En::KVec::Zero();
+  typename En::KMat pk = En::KMat::Zero();
+  bool carried = false;
+  Calibration cal;
+  diag::FeatureSlots slots;
+  for (const diag::Term& t : features) slots.motion.push_back({t.mf, t.mt, kFeaturePrior, 0.01});
+  int feature_effect = -1;
+  for (const Odolog& log : logs) {
+    if (log.drive != "diff") {
+      *error = log.path + ": odoerr evaluate supports diff-drive logs (this one is '" + log.drive + "')";
+      return false;
+    }
+    En en(log, opt, slots);
+    if (!en.prepare(error)) return false;
+    diag::WithSpec ws;
+    if (!diag::parseWith(with, en.effects(), false, &ws, error)) return false;
+    typename En::RunSpec s = en.nominalSpec(carried ? k : en.initialK(), true);
+    for (int e : ws.catalogue) en.freeEffect(&s, e);
+    if (!features.empty()) {
+      for (std::size_t e = 0; e < en.effects().size(); ++e)
+        if (en.effects()[e].name == "feature_motion") feature_effect = static_cast<int>(e);
+      en.freeEffect(&s, feature_effect);
+    }
+    if (carried) {
+      s.carry_x = &x;
+      s.carry_p = &p;
+      s.carry_pk = &pk;
+    }
+    const typename En::RunOut r = en.run(s);
+    x = r.x;
+    p = r.p;
+    k = r.k;
+    pk = r.pk;
+    carried = true;
+    json row = {{"log", log.path}};
+    for (int i = 0; i < 3; ++i) row[En::Drive::kParamNames[i]] = x[kD + i];
+    row["K_w"] = k[0];
+    cal.per_log.push_back(row);
+    cal.effects = json::object();
+    for (int e : ws.catalogue) {
+      const auto& f = en.effects()[static_cast<std::size_t>(e)];
+      json est = json::array(), sig = json::array();
+      for (int i = 0; i < f.n; ++i) {
+        est.push_back(x[f.offset + i]);
+        sig.push_back(std::sqrt(p(f.offset + i, f.offset + i)));
+      }
+      cal.effects[f.name] = {{"estimate", est}, {"sigma", sig}};
+    }
+    cal.c.terms.clear();
+    if (feature_effect >= 0) {
+      const auto& f = en.effects()[static_cast<std::size_t>(feature_effect)];
+      for (std::size_t i = 0; i < features.size(); ++i) {
+        const int idx = f.offset + static_cast<int>(i);
+        const std::string token = diag::withToken(features[i]);
+        cal.c.terms.push_back({static_cast<int>(features[i].mf), static_cast<int>(features[i].mt), x[idx], token});
+        cal.effects[token] = {{"estimate", {x[idx]}}, {"sigma", {std::sqrt(p(idx, idx))}}};
+      }
+    }
+  }
+  cal.c.delta_R = x[kD + 0];
+  cal.c.delta_L = x[kD + 1];
+  cal.c.delta_d = x[kD + 2];
+  for (int i = 0; i < 3; ++i) cal.sigma[i] = std::sqrt(p(kD + i, kD + i));
+  cal.k_w = k[0];
+  cal.k_w_sigma = std::sqrt(pk(0, 0));
+  *out = cal;
+  return true;
+}
+
+}  // namespace
+
+bool calibrateOnLogs(const std::vector<Odolog>& logs, const std::vector<std::string>& with, Calibration* out,
+                     std::string* error) {
+  if (logs.empty()) {
+    *error = "no calibration log";
+    return false;
+  }
+  // Parse --with once against the first log's catalogue to split catalogue effects from
+  // feature terms.
+  diag::Engine<DiffDrive> probe(logs[0], DiagnoseOptions{});
+  if (logs[0].drive != "diff") {
+    *error = logs[0].path + ": odoerr evaluate supports diff-drive logs (this one is '" + logs[0].drive + "')";
+    return false;
+  }
+  if (!probe.prepare(error)) return false;
+  diag::WithSpec ws;
+  if (!diag::parseWith(with, probe.effects(), false, &ws, error)) return false;
+  if (ws.automatic) {
+    *error = "--with: evaluate takes catalogue effects and motion feature terms, not auto";
+    return false;
+  }
+  std::vector<std::string> catalogue;
+  for (const std::string& w : with)
+    if (w.rfind("feature:", 0) != 0) catalogue.push_back(w);
+  for (const diag::Term& t : ws.features) {
+    if (t.kind != diag::Term::Kind::kMotion) {
+      *error = "--with: evaluate takes motion feature terms only ('" + diag::withToken(t) + "' is a beam term)";
+      return false;
+    }
+    if (t.mf == effects::MotionFeature::kXDs || t.mf == effects::MotionFeature::kYDs) {
+      *error = "--with: evaluate does not take the map-centred features x_ds, y_ds";
+      return false;
+    }
+    if (ws.features.size() > diag::FeatureSlots::kMax) {
+      *error = "--with: at most 4 feature terms";
+      return false;
+    }
+  }
+  if (ws.features.empty()) return calibrateImpl<effects::Catalogue>(logs, catalogue, {}, out, error);
+  return calibrateImpl<diag::Featured>(logs, catalogue, ws.features, out, error);
+}
+
+}  // namespace odoerr::sim

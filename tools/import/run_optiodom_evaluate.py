@@ -1,0 +1,227 @@
+#!/usr/bin/env python3
+"""The OptiOdom evaluation of docs/real-data.md ("Does the odometry error fall on runs the
+fit never saw?"): every run imported with motion-capture fixes, UMBmark from the squares,
+`odoerr evaluate` calibrated on the squares and the circles of one direction and tested on
+the circles of the other direction (both ways), and on the ivanjko runs (another path type,
+1 m only: they are about 2 m long). Writes summary.json, tables.md and two figures.
+
+Usage: run_optiodom_evaluate.py OUT_DIR [--odoerr BIN] [--data DIR]
+                                [--fix-sigma-xy M] [--fix-sigma-theta RAD] [--quick]
+Exit 77 when the data is absent; 1 when an acceptance criterion fails (--check).
+"""
+import argparse
+import glob
+import json
+import os
+import subprocess
+import sys
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+AUTHORS = "0.99544,0.99610,1.00192"  # the dataset README: the OptiOdom paper's calibration
+
+
+def direction(log):
+    """cw or ccw: the sign of the truth's total turn."""
+    th = [float(l.split()[4]) for l in open(log) if l.startswith("truth")]
+    return "cw" if th[-1] - th[0] < 0 else "ccw"
+
+
+def mocapJitter(csvs):
+    """The motion capture's noise sigma (x and y pooled, heading) from its 20 Hz rows: for
+    white noise the second difference has variance 6 sigma^2 (the motion adds a^2 dt^4,
+    negligible at 20 Hz). The median over the runs."""
+    xy, th = [], []
+    for c in csvs:
+        rows = []
+        for line in open(c, encoding="utf-8-sig"):
+            f = line.strip().split(",")
+            if len(f) >= 4:
+                rows.append([float(v) for v in f[1:4]])
+        for k, dst in ((0, xy), (1, xy), (2, th)):
+            v = [r[k] for r in rows[1:]]  # the first row is all zeros
+            d2 = [v[i + 1] - 2 * v[i] + v[i - 1] for i in range(1, len(v) - 1)]
+            if d2:
+                dst.append((sum(d * d for d in d2) / len(d2) / 6) ** 0.5)
+    med = lambda v: sorted(v)[len(v) // 2]
+    return med(xy), med(th)
+
+
+def run(cmd):
+    r = subprocess.run(cmd, capture_output=True, text=True)
+    if r.returncode != 0:
+        sys.exit("failed: %s\n%s%s" % (" ".join(cmd), r.stdout, r.stderr))
+    return r.stdout
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("out")
+    ap.add_argument("--odoerr", default=os.path.join(ROOT, "build/host/tools/odoerr/odoerr"))
+    ap.add_argument("--data", default=None)
+    ap.add_argument("--fix-sigma-xy", default="auto",
+                    help="the fixes' sigma (m); auto (default): the motion capture's own jitter, measured on the "
+                         "square runs (calibration data only)")
+    ap.add_argument("--fix-sigma-theta", default="auto", help="the fixes' heading sigma (rad); auto as above")
+    ap.add_argument("--quick", action="store_true", help="a small part: 2 squares, 2 circles, 2 ivanjko runs (CI)")
+    ap.add_argument("--check", action="store_true", help="exit 1 unless the acceptance criteria hold")
+    ap.add_argument("--no-plots", action="store_true")
+    a = ap.parse_args()
+    data = a.data
+    for cand in (data, os.path.join(ROOT, "../shared/data/optiodom-diff"), "/work/shared/data/optiodom-diff"):
+        if cand and os.path.isdir(cand):
+            data = cand
+            break
+    else:
+        print("skipped: the OptiOdom data (../shared/data/optiodom-diff) is absent")
+        return 77
+    os.makedirs(a.out, exist_ok=True)
+    logs = os.path.join(a.out, "logs")
+    os.makedirs(logs, exist_ok=True)
+    runs = {t: sorted(glob.glob(os.path.join(data, t, "*", "*_run-*.csv"))) for t in ("circular", "square", "ivanjko")}
+    if a.quick:
+        sq = runs["square"]
+        runs = {"square": [sq[0], sq[3]], "circular": [runs["circular"][0], runs["circular"][3]],
+                "ivanjko": runs["ivanjko"][:2]}
+    jitter = mocapJitter(runs["square"])
+    if a.fix_sigma_xy == "auto":
+        a.fix_sigma_xy = "%.6f" % jitter[0]
+    if a.fix_sigma_theta == "auto":
+        a.fix_sigma_theta = "%.6f" % jitter[1]
+    imported = {t: [] for t in runs}
+    for t, csvs in runs.items():
+        for c in csvs:
+            out = os.path.join(logs, "%s-%s.odolog" % (t, os.path.basename(c)[:-4]))
+            if not os.path.exists(out):
+                run([a.odoerr, "import", "optiodom", c, "--out", out, "--fix-sigma-xy", a.fix_sigma_xy,
+                     "--fix-sigma-theta", a.fix_sigma_theta])
+            imported[t].append(out)
+    squares = imported["square"]
+    circ = {"cw": [l for l in imported["circular"] if direction(l) == "cw"],
+            "ccw": [l for l in imported["circular"] if direction(l) == "ccw"]}
+    # UMBmark: Borenstein's procedure on the squares (both directions)
+    umb_json = os.path.join(a.out, "umbmark.json")
+    run([a.odoerr, "umbmark", *squares, "--side", "0.75", "--json", umb_json])
+    umb = json.load(open(umb_json))
+    splits = [("cw circles + squares -> ccw circles", squares + circ["cw"], circ["ccw"]),
+              ("ccw circles + squares -> cw circles", squares + circ["ccw"], circ["cw"]),
+              ("all circles + squares -> ivanjko", squares + circ["cw"] + circ["ccw"], imported["ivanjko"])]
+    results = []
+    for name, cal, test in splits:
+        if not cal or not test:
+            continue
+        res = {}
+        for tag, const in (("umbmark", umb["as_constants_option"]), ("authors", AUTHORS)):
+            out = os.path.join(a.out, "evaluate-%d-%s.json" % (len(results), tag))
+            run([a.odoerr, "evaluate", "--calibrate", *cal, "--test", *test, "--json", out, "--constants", const])
+            res[tag] = json.load(open(out))
+        e = res["umbmark"]
+        row = {"split": name, "calibration_logs": len(cal), "test_logs": len(test),
+               "calibrated": {k: e["calibrated"][k] for k in ("delta_R", "delta_L", "delta_d", "K_w")},
+               "growth": e["growth"], "rpe": {}, "rpe_by_length": []}
+        for L in ("1m", "5m"):
+            row["rpe"][L] = {"nominal": e["rpe"][L]["nominal"], "umbmark": e["rpe"][L]["constants"],
+                             "authors": res["authors"]["rpe"][L]["constants"], "odoerr": e["rpe"][L]["calibrated"]}
+        for ru, ra in zip(e["rpe_by_length"], res["authors"]["rpe_by_length"]):
+            row["rpe_by_length"].append({"length_m": ru["length_m"], "nominal": ru["nominal"], "umbmark": ru["constants"],
+                                         "authors": ra["constants"], "odoerr": ru["calibrated"],
+                                         "predicted_sigma_m": ru["predicted_sigma_m"]})
+        results.append(row)
+    # acceptance on the splits with 5 m segments
+    checks = []
+    for r in results:
+        f = r["rpe"]["5m"]
+        if not f["odoerr"]["segments"]:
+            continue
+        nom, umbv, odo = f["nominal"]["trans_m"], f["umbmark"]["trans_m"], f["odoerr"]["trans_m"]
+        g = r["growth"]
+        ratio = g["observed_rmse_5m_m"] / g["predicted_sigma_5m_m"] if g["predicted_sigma_5m_m"] else None
+        checks.append({"split": r["split"], "reduction_vs_nominal": 1 - odo / nom, "odoerr_le_umbmark": odo <= umbv,
+                       "growth_ratio_observed_to_predicted": ratio,
+                       "pass": 1 - odo / nom >= 0.30 and odo <= umbv and ratio is not None and 1 / 1.5 <= ratio <= 1.5})
+    # pooled over the two direction splits (segment-weighted): every circle run tested once
+    dir_rows = [r for r in results if r["rpe"]["5m"]["odoerr"]["segments"]]
+    if len(dir_rows) == 2:
+        pooled = {}
+        for k in ("nominal", "umbmark", "authors", "odoerr"):
+            n = sum(r["rpe"]["5m"][k]["segments"] for r in dir_rows)
+            pooled[k] = sum(r["rpe"]["5m"][k]["trans_m"] * r["rpe"]["5m"][k]["segments"] for r in dir_rows) / n
+        checks.append({"split": "both direction splits pooled", "reduction_vs_nominal": 1 - pooled["odoerr"] / pooled["nominal"],
+                       "odoerr_le_umbmark": pooled["odoerr"] <= pooled["umbmark"], "pooled_5m_trans_m": pooled,
+                       "growth_ratio_observed_to_predicted": None,
+                       "pass": 1 - pooled["odoerr"] / pooled["nominal"] >= 0.30 and pooled["odoerr"] <= pooled["umbmark"]})
+    summary = {"data": data, "fix_sigma_xy_m": float(a.fix_sigma_xy), "fix_sigma_theta_rad": float(a.fix_sigma_theta),
+               "quick": a.quick, "umbmark": umb, "authors_constants": AUTHORS, "splits": results, "acceptance": checks}
+    json.dump(summary, open(os.path.join(a.out, "summary.json"), "w"), indent=2)
+    md = ["| split | constants | 1 m trans (mm) | 1 m rot (deg) | 5 m trans (mm) | 5 m rot (deg) | 5 m trans RMSE (mm) |",
+          "|---|---|---|---|---|---|---|"]
+    deg = 57.29577951308232
+    fmt = lambda v, s: "—" if v is None else "%.1f" % (v * s)
+    for r in results:
+        for k in ("nominal", "umbmark", "authors", "odoerr"):
+            a1, a5 = r["rpe"]["1m"][k], r["rpe"]["5m"][k]
+            md.append("| %s | %s | %s | %s | %s | %s | %s |" % (
+                r["split"], k, fmt(a1["trans_m"], 1e3), fmt(a1["rot_rad"], deg), fmt(a5["trans_m"], 1e3),
+                fmt(a5["rot_rad"], deg), fmt(a5["trans_rmse_m"], 1e3)))
+    md += ["", "| split | delta_R | delta_L | delta_d | K_w (m) | predicted 5 m sigma (mm) | observed 5 m RMSE (mm) |",
+           "|---|---|---|---|---|---|---|"]
+    for r in results:
+        c, g = r["calibrated"], r["growth"]
+        md.append("| %s | %.5f | %.5f | %.5f | %.3g | %s | %s |" % (
+            r["split"], c["delta_R"], c["delta_L"], c["delta_d"], c["K_w"], fmt(g["predicted_sigma_5m_m"], 1e3),
+            fmt(g["observed_rmse_5m_m"], 1e3)))
+    md += ["", "UMBmark (%d cw + %d ccw squares): E_d %.5f, E_b %.5f -> --constants %s" % (
+        umb["runs"]["cw"], umb["runs"]["ccw"], umb["E_d"], umb["E_b"], umb["as_constants_option"])]
+    md.append("Fix sigmas: %s m, %s rad (motion-capture jitter measured on the squares unless given)" % (
+        a.fix_sigma_xy, a.fix_sigma_theta))
+    for c in checks:
+        g = c["growth_ratio_observed_to_predicted"]
+        md.append("acceptance %s: 5 m RPE %.0f %% below nominal, no worse than UMBmark: %s%s: %s" % (
+            c["split"], 100 * c["reduction_vs_nominal"], c["odoerr_le_umbmark"],
+            "" if g is None else ", observed/predicted growth %.2f" % g, "PASS" if c["pass"] else "FAIL"))
+    open(os.path.join(a.out, "tables.md"), "w").write("\n".join(md) + "\n")
+    print("\n".join(md))
+    if not a.no_plots:
+        plots(a.out, results)
+    if a.check and not all(c["pass"] for c in checks):
+        return 1
+    return 0
+
+
+def plots(out, results):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    rs = [r for r in results if r["rpe"]["5m"]["odoerr"]["segments"]]
+    if not rs:
+        return
+    fig, axes = plt.subplots(1, len(rs), figsize=(5.5 * len(rs), 4.2), squeeze=False)
+    for ax, r in zip(axes[0], rs):
+        L = [p["length_m"] for p in r["rpe_by_length"]]
+        for k, lab in (("nominal", "nominal"), ("umbmark", "UMBmark"), ("authors", "OptiOdom (authors)"),
+                       ("odoerr", "odoerr evaluate")):
+            ax.plot(L, [1e3 * (p[k]["trans_m"] or float("nan")) for p in r["rpe_by_length"]], "o-", label=lab)
+        ax.set_xlabel("path length (m)")
+        ax.set_ylabel("mean translation RPE (mm)")
+        ax.set_title(r["split"], fontsize=10)
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(os.path.join(out, "rpe_vs_length.png"), dpi=110)
+    fig, axes = plt.subplots(1, len(rs), figsize=(5.5 * len(rs), 4.2), squeeze=False)
+    for ax, r in zip(axes[0], rs):
+        L = [p["length_m"] for p in r["rpe_by_length"]]
+        ax.plot(L, [1e3 * (p["odoerr"]["trans_rmse_m"] or float("nan")) for p in r["rpe_by_length"]], "o-",
+                label="observed RMSE (calibrated odometry)")
+        ax.plot(L, [1e3 * (p["predicted_sigma_m"] or float("nan")) for p in r["rpe_by_length"]], "s--",
+                label="predicted sigma (K_w = %.2g m)" % r["calibrated"]["K_w"])
+        ax.set_xlabel("path length (m)")
+        ax.set_ylabel("translation error (mm)")
+        ax.set_title(r["split"], fontsize=10)
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(os.path.join(out, "growth.png"), dpi=110)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

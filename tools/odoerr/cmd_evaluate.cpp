@@ -1,0 +1,241 @@
+// odoerr tool: `odoerr evaluate` (does the odometry error fall on runs the fit never
+// saw?) and `odoerr umbmark` (Borenstein's calibration from square runs, the baseline).
+// The measures live in sim_host (odoerr/sim/evaluate.hpp).
+#include <cmath>
+#include <cstdio>
+#include <memory>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "cli.hpp"
+#include "commands.hpp"
+#include "odoerr/sim/evaluate.hpp"
+#include "odoerr/sim/odolog.hpp"
+
+namespace odoerr {
+
+namespace {
+
+using json = nlohmann::ordered_json;
+
+bool readLogs(const std::vector<std::string>& paths, std::vector<sim::Odolog>* logs, std::string* err) {
+  for (const auto& p : paths) {
+    sim::Odolog log;
+    if (!sim::readOdolog(p, &log, err)) return false;
+    logs->push_back(std::move(log));
+  }
+  return true;
+}
+
+bool parseConstants(const std::string& s, sim::OdoConstants* c, std::string* err) {
+  std::vector<double> v;
+  std::stringstream ss(s);
+  std::string item;
+  while (std::getline(ss, item, ',')) {
+    char* end = nullptr;
+    const double d = std::strtod(item.c_str(), &end);
+    if (item.empty() || *end != '\0' || !std::isfinite(d) || !(d > 0)) {
+      *err = "--constants: '" + item + "' is not a positive number (give delta_R,delta_L,delta_d, e.g. 0.99544,0.99610,1.00192)";
+      return false;
+    }
+    v.push_back(d);
+  }
+  if (v.size() != 3) {
+    *err = "--constants takes three values delta_R,delta_L,delta_d (got " + std::to_string(v.size()) + ")";
+    return false;
+  }
+  c->delta_R = v[0];
+  c->delta_L = v[1];
+  c->delta_d = v[2];
+  return true;
+}
+
+/// RPE of odometry with constants c on every test log, pooled over the logs' segments.
+struct Pooled {
+  std::vector<sim::RpeSegment> segs;
+};
+
+int runEvaluate(const std::vector<std::string>& cal_paths, const std::vector<std::string>& test_paths,
+                const std::string& json_out, const std::vector<std::string>& with, const std::string& constants) {
+  std::string err;
+  auto fail = [&](const std::string& e) {
+    std::fprintf(stderr, "odoerr evaluate: %s\n", e.c_str());
+    return 1;
+  };
+  sim::OdoConstants user;
+  const bool has_user = !constants.empty();
+  if (has_user && !parseConstants(constants, &user, &err)) return fail(err);
+  std::vector<sim::Odolog> cal_logs, test_logs;
+  if (!readLogs(cal_paths, &cal_logs, &err) || !readLogs(test_paths, &test_logs, &err)) return fail(err);
+  sim::Calibration cal;
+  if (!sim::calibrateOnLogs(cal_logs, with, &cal, &err)) return fail(err);
+
+  const double lengths[2] = {1.0, 5.0};
+  const char* names[2] = {"1m", "5m"};
+  std::vector<std::pair<std::string, sim::OdoConstants>> sets = {{"nominal", sim::OdoConstants{}},
+                                                                 {"calibrated", cal.c}};
+  if (has_user) sets.push_back({"constants", user});
+  std::vector<std::vector<Pooled>> pooled(2, std::vector<Pooled>(sets.size()));
+  json tests = json::array();
+  double pred_sum = 0;
+  long pred_n = 0;
+  // RPE and predicted growth against path length (the figures of docs/real-data.md)
+  const std::vector<double> curve = {0.5, 1, 2, 3, 4, 5, 6, 8};
+  std::vector<std::vector<Pooled>> by_len(curve.size(), std::vector<Pooled>(sets.size()));
+  std::vector<double> curve_pred(curve.size(), 0.0);
+  std::vector<long> curve_n(curve.size(), 0);
+  for (const sim::Odolog& log : test_logs) {
+    std::string kind;
+    const std::vector<sim::Pose2> ref = sim::referenceOf(log, &kind);
+    if (ref.size() < 2) return fail(log.path + ": a test log needs truth or pose records (the reference)");
+    std::vector<double> times;
+    for (const auto& r : ref) times.push_back(r.t);
+    json row = {{"log", log.path}, {"reference", kind}};
+    for (std::size_t s = 0; s < sets.size(); ++s) {
+      std::vector<sim::Pose2> odo;
+      if (!sim::integrateOdometry(log, sets[s].second, times, &odo, &err)) return fail(err);
+      for (std::size_t l = 0; l < curve.size(); ++l) {
+        const auto segs = sim::rpeSegments(ref, odo, curve[l]);
+        by_len[l][s].segs.insert(by_len[l][s].segs.end(), segs.begin(), segs.end());
+      }
+      for (int l = 0; l < 2; ++l) {
+        const auto segs = sim::rpeSegments(ref, odo, lengths[l]);
+        pooled[l][s].segs.insert(pooled[l][s].segs.end(), segs.begin(), segs.end());
+        row["rpe"][names[l]][sets[s].first] = sim::rpeJson(segs);
+      }
+    }
+    const double pred = sim::predictedRpeSigma(log, cal.c, cal.k_w, ref, 5.0);
+    row["predicted_sigma_5m_m"] = pred >= 0 ? json(pred) : json(nullptr);
+    if (pred >= 0) {
+      // pooled as the mean of the variance over segments
+      const auto n = sim::rpeSegments(ref, ref, 5.0).size();
+      pred_sum += pred * pred * double(n);
+      pred_n += static_cast<long>(n);
+    }
+    for (std::size_t l = 0; l < curve.size(); ++l) {
+      const double pl = sim::predictedRpeSigma(log, cal.c, cal.k_w, ref, curve[l]);
+      if (pl < 0) continue;
+      const auto n = sim::rpeSegments(ref, ref, curve[l]).size();
+      curve_pred[l] += pl * pl * double(n);
+      curve_n[l] += static_cast<long>(n);
+    }
+    tests.push_back(row);
+  }
+  json j;
+  j["calibrated"] = {{"delta_R", cal.c.delta_R},
+                     {"delta_L", cal.c.delta_L},
+                     {"delta_d", cal.c.delta_d},
+                     {"K_w", cal.k_w},
+                     {"sigma", {{"delta_R", cal.sigma[0]}, {"delta_L", cal.sigma[1]}, {"delta_d", cal.sigma[2]},
+                                {"K_w", cal.k_w_sigma}}}};
+  if (!with.empty()) j["calibrated"]["effects"] = cal.effects;
+  j["calibrated"]["after_each_log"] = cal.per_log;
+  for (int l = 0; l < 2; ++l) {
+    json r = json::object();
+    for (std::size_t s = 0; s < sets.size(); ++s) r[sets[s].first] = sim::rpeJson(pooled[l][s].segs);
+    if (!has_user) r["constants"] = nullptr;
+    j["rpe"][names[l]] = r;
+  }
+  const json cal5 = j["rpe"]["5m"]["calibrated"];  // a copy: ordered_json moves its members on insertion
+  j["growth"] = {{"predicted_sigma_5m_m", pred_n > 0 ? json(std::sqrt(pred_sum / double(pred_n))) : json(nullptr)},
+                 {"observed_rmse_5m_m", cal5["trans_rmse_m"]},
+                 {"what", "predicted: the position sigma after 5 m of path that the calibrated K_w gives odometry "
+                          "with the calibrated constants (RMS over the test segments); observed: the RMSE of the "
+                          "calibrated odometry's 5 m translation RPE"}};
+  if (j["growth"]["predicted_sigma_5m_m"].is_number() && cal5["trans_rmse_m"].is_number())
+    j["growth"]["ratio_observed_to_predicted"] =
+        cal5["trans_rmse_m"].get<double>() / j["growth"]["predicted_sigma_5m_m"].get<double>();
+  json curve_j = json::array();
+  for (std::size_t l = 0; l < curve.size(); ++l) {
+    json row = {{"length_m", curve[l]}};
+    for (std::size_t s = 0; s < sets.size(); ++s) row[sets[s].first] = sim::rpeJson(by_len[l][s].segs);
+    row["predicted_sigma_m"] = curve_n[l] > 0 ? json(std::sqrt(curve_pred[l] / double(curve_n[l]))) : json(nullptr);
+    curve_j.push_back(row);
+  }
+  j["rpe_by_length"] = curve_j;
+  j["test_logs"] = tests;
+  j["calibration_logs"] = cal_paths;
+  j["rpe_definition"] = "evo's relative pose error with delta in metres of the reference path; a segment starts "
+                        "every 0.1 m of path; E = (Q_i^-1 Q_j)^-1 (P_i^-1 P_j); trans_m and rot_rad are means, "
+                        "*_rmse_* the RMSE, pooled over the test logs' segments";
+  if (!cli::writeFile(json_out, j.dump(2) + "\n", &err)) return fail(err);
+  auto num = [](const json& v) { return v.is_number() ? v.get<double>() : std::nan(""); };
+  std::fprintf(stderr, "odoerr evaluate: calibrated delta_R %.5f delta_L %.5f delta_d %.5f K_w %.3g on %zu logs\n",
+               cal.c.delta_R, cal.c.delta_L, cal.c.delta_d, cal.k_w, cal_logs.size());
+  for (int l = 0; l < 2; ++l) {
+    std::fprintf(stderr, "  RPE %s (mean trans / rot):", names[l]);
+    for (const auto& s : sets)
+      std::fprintf(stderr, " %s %.4f m %.4f rad;", s.first.c_str(), num(j["rpe"][names[l]][s.first]["trans_m"]),
+                   num(j["rpe"][names[l]][s.first]["rot_rad"]));
+    std::fprintf(stderr, "\n");
+  }
+  std::fprintf(stderr, "  5 m growth: predicted sigma %.4f m, observed RMSE %.4f m; wrote %s\n",
+               num(j["growth"]["predicted_sigma_5m_m"]), num(j["growth"]["observed_rmse_5m_m"]), json_out.c_str());
+  return 0;
+}
+
+int runUmbmark(const std::vector<std::string>& paths, double side, const std::string& json_out) {
+  std::string err;
+  std::vector<sim::Odolog> logs;
+  sim::UmbmarkResult r;
+  if (!readLogs(paths, &logs, &err) || !sim::umbmark(logs, side, &r, &err)) {
+    std::fprintf(stderr, "odoerr umbmark: %s\n", err.c_str());
+    return 1;
+  }
+  json j = {{"runs", {{"cw", r.n_cw}, {"ccw", r.n_ccw}}},
+            {"side_m", side},
+            {"return_error_cg_m", {{"cw", {r.x_cw, r.y_cw}}, {"ccw", {r.x_ccw, r.y_ccw}}}},
+            {"alpha_rad", r.alpha},
+            {"beta_rad", r.beta},
+            {"radius_m", r.radius},
+            {"E_d", r.ed},
+            {"E_b", r.eb},
+            {"constants", {{"delta_R", r.c.delta_R}, {"delta_L", r.c.delta_L}, {"delta_d", r.c.delta_d}}},
+            {"logs", paths}};
+  char c[128];
+  std::snprintf(c, sizeof c, "%.6f,%.6f,%.6f", r.c.delta_R, r.c.delta_L, r.c.delta_d);
+  j["as_constants_option"] = c;
+  if (!json_out.empty() && !cli::writeFile(json_out, j.dump(2) + "\n", &err)) {
+    std::fprintf(stderr, "odoerr umbmark: %s\n", err.c_str());
+    return 1;
+  }
+  std::fprintf(stderr, "odoerr umbmark: %d cw + %d ccw squares; E_d %.5f, E_b %.5f; --constants %s\n", r.n_cw, r.n_ccw,
+               r.ed, r.eb, c);
+  std::printf("%s\n", c);
+  return 0;
+}
+
+}  // namespace
+
+void registerEvaluateCommands(CLI::App& app, cli::Commands& cmds) {
+  struct Opts {
+    std::vector<std::string> cal, test, with;
+    std::string json, constants;
+    std::vector<std::string> squares;
+    double side = 0.75;
+    std::string umb_json;
+  };
+  auto o = std::make_shared<Opts>();
+  CLI::App* ev = app.add_subcommand(
+      "evaluate", "calibrate on some logs, then compare the odometry error (RPE over 1 m and 5 m) on others");
+  ev->add_option("--calibrate", o->cal, "calibration logs, in the order the estimator runs over them")->required();
+  ev->add_option("--test", o->test, "test logs (never seen by the fit); reference: their truth, else their pose fixes")
+      ->required();
+  ev->add_option("--json", o->json, "result file")->required();
+  ev->add_option("--with", o->with, "catalogue effects estimated with the drive parameters")->delimiter(',');
+  ev->add_option("--constants", o->constants,
+                 "also evaluate these constants: delta_R,delta_L,delta_d (scales of the nominal, e.g. a published "
+                 "calibration)");
+  cmds.add(ev, [o]() { return runEvaluate(o->cal, o->test, o->json, o->with, o->constants); });
+
+  CLI::App* um = app.add_subcommand("umbmark", "Borenstein's UMBmark calibration from clockwise and counter-clockwise squares");
+  um->add_option("LOG", o->squares, "square runs (closed squares, both directions)")->required();
+  um->add_option("--side", o->side, "the square's side (m)")->check(CLI::Range(0.01, 1000.0));
+  um->add_option("--json", o->umb_json, "result file");
+  cmds.add(um, [o]() { return runUmbmark(o->squares, o->side, o->umb_json); });
+}
+
+}  // namespace odoerr
