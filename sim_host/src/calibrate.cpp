@@ -58,6 +58,14 @@ bool calibrateImpl(const std::vector<Odolog>& logs, const std::vector<std::strin
       s.carry_pk = &pk;
     }
     const typename En::RunOut r = en.run(s);
+    if (r.n_innov == 0) {
+      // Nothing was measured: the parameters would come back as their priors and be
+      // reported as a calibration. (A log whose map is a separate file: calibrate with
+      // `odoerr replay --map` and pass its estimate with --constants; docs/real-data.md.)
+      *error = log.path + ": no measurement was fused (no pose fix, and no laser scan against map walls); "
+               "nothing to calibrate on";
+      return false;
+    }
     x = r.x;
     p = r.p;
     k = r.k;
