@@ -62,28 +62,6 @@ struct Acc {
   }
 };
 
-json ljungBox(const std::vector<double>& series) {
-  const int ns = static_cast<int>(series.size());
-  const int lags = std::max(1, std::min(20, ns / 5));
-  double mean = 0;
-  for (double v : series) mean += v;
-  mean /= ns;
-  double c0 = 0;
-  for (double v : series) c0 += (v - mean) * (v - mean);
-  if (!(c0 > 0)) return nullptr;
-  double q = 0;
-  json acf = json::array();
-  for (int k = 1; k <= lags; ++k) {
-    double ck = 0;
-    for (int i = k; i < ns; ++i) ck += (series[i] - mean) * (series[i - k] - mean);
-    const double rho = ck / c0;
-    acf.push_back(rho);
-    q += rho * rho / double(ns - k);
-  }
-  q *= double(ns) * double(ns + 2);
-  return {{"lags", lags}, {"q", q}, {"p_value", chiSquareSf(q, lags)}, {"acf", acf}};
-}
-
 json bins(const std::vector<PoseFixRec>& fixes, const std::vector<Comp>& comp, std::vector<double> edges,
           double (*value)(const PoseFixRec&)) {
   json arr = json::array();

@@ -50,18 +50,15 @@ bool run(const Odolog& log, const ReplayOptions& opt, ReplaySummary* sum, std::s
   LaserConfig<S> lc;
   if (log.has_laser) {
     lc = {log.laser.beams, log.laser.angle_min, log.laser.angle_inc, log.laser.range_max,
-          log.laser.sigma, log.laser.mount_x, log.laser.mount_y, log.laser.mount_yaw};
+          opt.tuning.rangeSigma(log.laser.sigma), log.laser.mount_x, log.laser.mount_y, log.laser.mount_yaw};
   }
   typename Est::LaserT laser;
   if (!laser.init(lc, opt.beams_used)) {
     *error = log.path + ": the laser set-up is not usable";
     return false;
   }
-  fw::FilterSetup setup;
-  if (opt.gate_nis > 0) setup.akf.gate_nis = opt.gate_nis;
-  if (opt.param_sigma > 0) setup.sigma_scale = opt.param_sigma;
-  AkfConfig<S> akf_cfg{S(setup.akf.max_incidence_rad), S(setup.akf.gate_nis)};
-  akf_cfg.order_by_prior_nis = opt.order_beams;
+  const fw::FilterSetup setup = opt.tuning.setup();
+  const AkfConfig<S> akf_cfg = opt.tuning.akfConfig<S>(setup);
   Est est(M(drive), map.view(), laser, akf_cfg, setup.of);
   typename M::StateVec x0 = M::StateVec::Zero();
   x0[0] = log.init.x;

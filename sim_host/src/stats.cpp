@@ -95,6 +95,29 @@ double quantile(std::vector<double> v, double q) {
 
 }  // namespace
 
+json ljungBox(const std::vector<double>& series) {
+  const int ns = static_cast<int>(series.size());
+  if (ns < 2) return nullptr;
+  const int lags = std::max(1, std::min(20, ns / 5));
+  double mean = 0;
+  for (double v : series) mean += v;
+  mean /= ns;
+  double c0 = 0;
+  for (double v : series) c0 += (v - mean) * (v - mean);
+  if (!(c0 > 0)) return nullptr;
+  double q = 0;
+  json acf = json::array();
+  for (int k = 1; k <= lags && k < ns; ++k) {
+    double ck = 0;
+    for (int i = k; i < ns; ++i) ck += (series[i] - mean) * (series[i - k] - mean);
+    const double rho = ck / c0;
+    acf.push_back(rho);
+    q += rho * rho / double(ns - k);
+  }
+  q *= double(ns) * double(ns + 2);
+  return {{"lags", lags}, {"q", q}, {"p_value", chiSquareSf(q, lags)}, {"acf", acf}};
+}
+
 double chiSquareSf(double x, double k) {
   if (!(x > 0)) return 1.0;
   const double a = 0.5 * k, h = 0.5 * x;
@@ -162,24 +185,7 @@ DriveStats computeStats(const std::vector<ScanRec>& scans, const std::vector<Bea
   std::vector<double> series;
   for (const ScanRec& r : scans)
     if (r.dof > 0) series.push_back(r.sum_norm / std::sqrt(double(r.dof)));
-  const int ns = static_cast<int>(series.size());
-  const int lags = std::max(1, std::min(20, ns / 5));
-  double mean = 0;
-  for (double v : series) mean += v;
-  mean /= std::max(1, ns);
-  double c0 = 0;
-  for (double v : series) c0 += (v - mean) * (v - mean);
-  double q = 0;
-  json acf = json::array();
-  for (int k = 1; k <= lags && ns > k && c0 > 0; ++k) {
-    double ck = 0;
-    for (int i = k; i < ns; ++i) ck += (series[i] - mean) * (series[i - k] - mean);
-    const double rho = ck / c0;
-    acf.push_back(rho);
-    q += rho * rho / double(ns - k);
-  }
-  q *= double(ns) * double(ns + 2);
-  t["ljung_box"] = {{"lags", lags}, {"q", q}, {"p_value", chiSquareSf(q, lags)}, {"acf", acf}};
+  t["ljung_box"] = ljungBox(series);
   // --- per-beam residuals (normalised innovation by beam index).
   int max_beam = 0;
   for (const BeamRec& b : beams) max_beam = std::max(max_beam, b.beam);

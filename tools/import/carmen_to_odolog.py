@@ -85,16 +85,14 @@ exit status 2 (line numbers count lines of the decompressed text); nothing is wr
 Other message types (PARAM, NEFF, comments, and any not named above) are skipped.
 """
 
-import gzip
 import hashlib
 import math
 import os
 import re
 import sys
-import zlib
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from import_common import InputError, Parser, parse_number, run, write_atomic  # noqa: E402
+from import_common import InputError, Parser, parse_number, read_bytes, run, write_atomic  # noqa: E402
 
 WHEEL_RADIUS_M = 0.0825
 TICKS_PER_REV = 4096
@@ -120,16 +118,7 @@ def wrap(a):
 
 
 def read_text(path):
-    try:
-        with open(path, "rb") as f:
-            data = f.read()
-    except OSError as e:
-        raise InputError(f"{path}: cannot read: {e.strerror or e}") from None
-    if data[:2] == b"\x1f\x8b":
-        try:
-            data = gzip.decompress(data)
-        except (OSError, EOFError, zlib.error) as e:
-            raise InputError(f"{path}: not a readable gzip file: {e}") from None
+    data = read_bytes(path)
     return data, hashlib.sha256(data).hexdigest()
 
 

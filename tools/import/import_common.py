@@ -1,8 +1,10 @@
 """What the odolog importers share: the input error, the atomic write, a one-line argument
 parser and the entry point. Standard library only."""
 import argparse
+import gzip
 import math
 import os
+import zlib
 import re
 import sys
 
@@ -22,6 +24,21 @@ def parse_number(tok, where, what):
     if not math.isfinite(v):
         raise InputError(f"{where}: {what}: '{tok}' is not a finite number")
     return v
+
+
+def read_bytes(path):
+    """The bytes of a file, gunzipped when it is gzip data; InputError naming the file."""
+    try:
+        with open(path, "rb") as f:
+            data = f.read()
+    except OSError as e:
+        raise InputError(f"{path}: cannot read: {e.strerror or e}") from None
+    if data[:2] == b"\x1f\x8b":
+        try:
+            data = gzip.decompress(data)
+        except (OSError, EOFError, zlib.error) as e:
+            raise InputError(f"{path}: not a readable gzip file: {e}") from None
+    return data
 
 
 def write_atomic(path, text):

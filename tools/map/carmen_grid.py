@@ -20,15 +20,17 @@ Output cells as map_saver writes them (trinary): p > 0.65 occupied (0), p < 0.19
 (254), else or never observed unknown (205).
 """
 
-import gzip
 import math
 import os
+import sys
 import time
-import zlib
 
 import numpy as np
 
 import rosmap
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "import"))
+import import_common  # noqa: E402  (tools/import: the importers' shared file helpers)
 
 L_OCC, L_FREE, L_CLAMP = 0.85, -0.40, 5.0
 NO_RETURN_M = 81.0
@@ -42,15 +44,9 @@ class LogError(Exception):
 def read_scans(path, max_scans=None):
     """The FLASER scans of a CARMEN log: list of (pose (x, y, theta), ranges array, line number)."""
     try:
-        with open(path, "rb") as f:
-            data = f.read()
-    except OSError as e:
-        raise LogError(f"{path}: cannot read: {e.strerror or e}") from None
-    if data[:2] == b"\x1f\x8b":
-        try:
-            data = gzip.decompress(data)
-        except (OSError, EOFError, zlib.error) as e:
-            raise LogError(f"{path}: not a readable gzip file: {e}") from None
+        data = import_common.read_bytes(path)
+    except import_common.InputError as e:
+        raise LogError(str(e)) from None
     scans = []
     for no, raw in enumerate(data.split(b"\n"), start=1):
         if not raw.startswith(b"FLASER"):

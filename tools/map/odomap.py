@@ -14,8 +14,12 @@ odolog v1 file and returns its `wall` records, as the C++ reader (sim_host map_i
 
 import math
 import os
+import sys
 
 import numpy as np
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "import"))
+import import_common  # noqa: E402  (tools/import: the importers' shared file helpers)
 
 
 class OdomapError(Exception):
@@ -38,18 +42,10 @@ def write(path, segs, meta=(), grid_line=None, comments=()):
             raise ValueError(f"segment {s} is not finite")
         lines.append("segment %.4f %.4f %.4f %.4f" % tuple(s))
     text = "\n".join(lines) + "\n"
-    d = os.path.dirname(os.path.abspath(path))
-    tmp = os.path.join(d, f".{os.path.basename(path)}.tmp{os.getpid()}")
     try:
-        with open(tmp, "w", encoding="utf-8", newline="\n") as f:
-            f.write(text)
-        os.replace(tmp, path)
-    except OSError as e:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise OdomapError(f"{path}: cannot write: {e.strerror or e}") from None
+        import_common.write_atomic(path, text)
+    except import_common.InputError as e:
+        raise OdomapError(str(e)) from None
 
 
 def grid_line(grid):

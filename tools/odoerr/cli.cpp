@@ -94,4 +94,38 @@ void ProgressBar::operator()(int done, int total) {
   std::fflush(stderr);
 }
 
+void addTuningOptions(CLI::App* sub, TuningArgs* t) {
+  sub->add_flag("--order-beams", t->tuning.order_beams,
+                "fuse each scan's beams most consistent with the prior first (robust under a wide heading prior; "
+                "two casts a beam)");
+  sub->add_option("--range-sigma", t->tuning.range_sigma,
+                  "range noise std (m) instead of the log's laser record (e.g. 0.1 for a map built from a grid)")
+      ->check(CLI::PositiveNumber);
+  sub->add_option("--param-sigma", t->tuning.param_sigma,
+                  "prior sigma of the systematic parameters (relative; default 0.2, the paper's)")
+      ->check(CLI::PositiveNumber);
+  sub->add_option("--gate-nis", t->tuning.gate_nis, "innovation gate on the NIS (default 25: 5 sigma)")
+      ->check(CLI::PositiveNumber);
+  sub->add_option("--k0", t->k0, "initial non-systematic estimate: K_w (diff) or K_rho,K_theta (sync); its sigma is 10x")
+      ->delimiter(',')
+      ->check(CLI::PositiveNumber);
+}
+
+bool applyK0(const TuningArgs& t, const std::string& drive, double* k0_w, double* k0_rho, double* k0_theta,
+             std::string* error) {
+  if (t.k0.empty()) return true;
+  const std::size_t want = drive == "sync" ? 2 : 1;
+  if (t.k0.size() != want) {
+    *error = "--k0 takes " + std::to_string(want) + " value(s) for the " + drive + " drive";
+    return false;
+  }
+  if (want == 2) {
+    *k0_rho = t.k0[0];
+    *k0_theta = t.k0[1];
+  } else {
+    *k0_w = t.k0[0];
+  }
+  return true;
+}
+
 }  // namespace odoerr::cli

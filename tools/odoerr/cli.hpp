@@ -13,6 +13,8 @@
 
 #include <unistd.h>
 
+#include "odoerr/sim/filter_tuning.hpp"
+
 namespace odoerr::cli {
 
 /// Writes a whole file or explains why not (naming the path).
@@ -76,5 +78,16 @@ class Commands {
   };
   std::vector<Entry> cmds_;
 };
+
+/// The real-robot filter settings a subcommand takes (replay, diagnose): --order-beams,
+/// --range-sigma, --param-sigma, --gate-nis, --k0. The paper's settings are the defaults.
+struct TuningArgs {
+  sim::FilterTuning tuning;
+  std::vector<double> k0;
+};
+void addTuningOptions(CLI::App* sub, TuningArgs* t);
+/// --k0 into the drive's initial K (1 value for diff, 2 for sync); false with *error.
+bool applyK0(const TuningArgs& t, const std::string& drive, double* k0_w, double* k0_rho, double* k0_theta,
+             std::string* error);
 
 }  // namespace odoerr::cli

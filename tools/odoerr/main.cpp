@@ -44,11 +44,13 @@ std::string plotScript() { return cli::scriptPath("ODOERR_PLOT_SCRIPT", ODOERR_P
 std::string reportScript() { return cli::scriptPath("ODOERR_REPORT_SCRIPT", ODOERR_REPORT_SCRIPT); }
 
 int runDiagnose(const std::string& log_path, const std::string& json_path, DiagnoseOptions opt, bool quiet,
-                const std::string& map_path = "") {
+                const std::string& map_path = "", const cli::TuningArgs& tuning = {}) {
   const char* who = quiet ? "odoerr report" : "odoerr diagnose";
   Odolog log;
   std::string err;
-  if (!readOdolog(log_path, &log, &err) || (!map_path.empty() && !readMapWalls(map_path, &log.walls, &err))) {
+  opt.tuning = tuning.tuning;
+  if (!readOdolog(log_path, &log, &err) || (!map_path.empty() && !readMapWalls(map_path, &log.walls, &err)) ||
+      !cli::applyK0(tuning, log.drive, &opt.k0_w, &opt.k0_rho, &opt.k0_theta, &err)) {
     std::fprintf(stderr, "%s: %s\n", who, err.c_str());
     return 1;
   }
@@ -174,6 +176,8 @@ int main(int argc, char** argv) {
   diag->add_option("--suggest", dg.suggest_dir,
                    "write DIR/discovered_effect.hpp, a C++ effect skeleton of the features discovery found");
   diag->add_option("--threads", dg.threads, "worker threads")->check(CLI::Range(1, 64));
+  cli::TuningArgs dg_tuning;
+  cli::addTuningOptions(diag, &dg_tuning);
   diag->add_option("--folds", dg.folds, "held-out comparison: cross-validation folds")->check(CLI::Range(1, 50));
   diag->add_option("--block-s", dg.block_s, "held-out comparison: block length (s)")->check(CLI::Range(0.5, 600.0));
   diag->add_option("--gap-s", dg.gap_s, "held-out comparison: data this close to a held-out block is not fitted (s)")
@@ -200,18 +204,8 @@ int main(int argc, char** argv) {
   replay->add_option("--beams-used", rp_beams, "beams fused per scan, spread evenly (0: all)")->check(CLI::Range(0, 4095));
   replay->add_option("--map-index-cell", rp_map_cell, "grid cell of the map's ray-cast index (m; 0: none)")
       ->check(CLI::Range(0.0, 100.0));
-  std::vector<double> rp_k0;
-  double rp_range_sigma = 0, rp_gate = 0;
-  replay->add_option("--k0", rp_k0, "initial non-systematic estimate: K_w (diff) or K_rho,K_theta (sync); its sigma is 10x")
-      ->delimiter(',')->check(CLI::PositiveNumber);
-  replay->add_option("--range-sigma", rp_range_sigma, "range noise std (m) instead of the log's laser record (a map built from a grid is known to a few cm)")
-      ->check(CLI::PositiveNumber);
-  double rp_param_sigma = 0;
-  replay->add_option("--param-sigma", rp_param_sigma, "prior sigma of the systematic parameters (relative; default 0.2, the paper's)")
-      ->check(CLI::PositiveNumber);
-  bool rp_order = false;
-  replay->add_flag("--order-beams", rp_order, "fuse each scan's beams most consistent with the prior first (robust with a wide heading prior; two casts a beam)");
-  replay->add_option("--gate-nis", rp_gate, "innovation gate on the NIS (default 25: 5 sigma)")->check(CLI::PositiveNumber);
+  cli::TuningArgs rp_tuning;
+  cli::addTuningOptions(replay, &rp_tuning);
 
   cli::Commands commands;
   registerCommands(app, commands);
@@ -243,23 +237,11 @@ int main(int argc, char** argv) {
     ro.cycle_m = rp_cycle;
     ro.beams_used = rp_beams;
     ro.map_cell_m = rp_map_cell;
-    if (!rp_k0.empty()) {
-      const std::size_t want = log.drive == "sync" ? 2 : 1;
-      if (rp_k0.size() != want) {
-        std::fprintf(stderr, "odoerr replay: --k0 takes %zu value(s) for the %s drive\n", want, log.drive.c_str());
-        return 1;
-      }
-      if (want == 2) {
-        ro.k0_rho = rp_k0[0];
-        ro.k0_theta = rp_k0[1];
-      } else {
-        ro.k0_w = rp_k0[0];
-      }
+    if (!cli::applyK0(rp_tuning, log.drive, &ro.k0_w, &ro.k0_rho, &ro.k0_theta, &err)) {
+      std::fprintf(stderr, "odoerr replay: %s\n", err.c_str());
+      return 1;
     }
-    if (rp_range_sigma > 0) log.laser.sigma = rp_range_sigma;
-    ro.gate_nis = rp_gate;
-    ro.param_sigma = rp_param_sigma;
-    ro.order_beams = rp_order;
+    ro.tuning = rp_tuning.tuning;
     ReplaySummary sum;
     if (!replayOdolog(log, ro, &sum, &err)) {
       std::fprintf(stderr, "odoerr replay: %s\n", err.c_str());
@@ -277,7 +259,7 @@ int main(int argc, char** argv) {
   }
   if (diag->parsed()) {
     dg.map_exclude = map_beams == "exclude";
-    return runDiagnose(dg_log, dg_json, dg, false, dg_map);
+    return runDiagnose(dg_log, dg_json, dg, false, dg_map, dg_tuning);
   }
   if (report->parsed()) {
     DiagnoseOptions rp;

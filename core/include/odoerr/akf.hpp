@@ -57,7 +57,8 @@ struct AkfConfig {
   /// wide heading prior (a real robot's odometry, scans every half metre) the first beams
   /// fused move the state, and in beam order one wrongly associated beam can move it far
   /// enough that the good beams after it are gated. Costs a second ray cast per beam:
-  /// a host option (odoerr replay --order-beams), off in the firmware.
+  /// a host option (odoerr replay --order-beams), off in the firmware. Read by the
+  /// Estimator, which then calls updateScanOrdered instead of updateScan.
   bool order_by_prior_nis = false;
 };
 
@@ -304,20 +305,8 @@ class Akf {
     const int phase = scan_phase_;
     if (stride > 1) scan_phase_ = phase + 1 < stride ? phase + 1 : 0;
     const S range_max = laser.config().range_max;
-    auto beamOfSlot = [&](int k) {
-      int i = k;
-      if (stride > 1) {
-        i = laser.slotBeam(k, phase);
-        for (int j = 1; j < stride && !(ranges[i] > S(0) && ranges[i] <= range_max); ++j) {
-          i = laser.slotBeam(k, phase + j < stride ? phase + j : phase + j - stride);
-        }
-      }
-      return i;
-    };
-    int order[MaxBeams];
-    if (cfg_.order_by_prior_nis) orderByPriorNis(map, laser, ranges, c, sn, beamOfSlot, order);
     for (int k = 0; k < laser.used(); ++k) {
-      const int i = cfg_.order_by_prior_nis ? order[k] : beamOfSlot(k);
+      const int i = slotBeamWithReturn(laser, ranges, k, phase, stride, range_max);
       S nis = S(0);
       S dth = S(0);
       constexpr bool kObserved = !std::is_same_v<std::decay_t<Observer>, NoObserver>;
@@ -334,6 +323,31 @@ class Akf {
         ++st.skipped;
       }
     }
+    if (st.used > 0) {
+      storeHeadingCosSin(c, sn);
+      mirrorUpper();
+    }
+    return st;
+  }
+
+  /// updateScan with the scan's beams fused most consistent first
+  /// (AkfConfig::order_by_prior_nis; the Estimator calls it when that is set). The same
+  /// beams as updateScan, in the order of their NIS at the prior mean.
+  template <typename MapT, int MaxBeams, typename Observer>
+  ScanStats<S> updateScanOrdered(const MapT& map, const LaserGeometry<S, MaxBeams>& laser, const S* ranges,
+                                 Observer&& observe) {
+    ScanStats<S> st;
+    S c;
+    S sn;
+    headingCosSin(&c, &sn);
+    const int stride = laser.stride();
+    const int phase = scan_phase_;
+    if (stride > 1) scan_phase_ = phase + 1 < stride ? phase + 1 : 0;
+    const S range_max = laser.config().range_max;
+    auto beamOfSlot = [&](int k) { return slotBeamWithReturn(laser, ranges, k, phase, stride, range_max); };
+    int order[MaxBeams];
+    orderByPriorNis(map, laser, ranges, c, sn, beamOfSlot, order);
+    for (int k = 0; k < laser.used(); ++k) fuseScanBeam(map, laser, order[k], ranges, &c, &sn, observe, &st);
     if (st.used > 0) {
       storeHeadingCosSin(c, sn);
       mirrorUpper();
@@ -445,6 +459,41 @@ class Akf {
   /// A state held constant: its variance is exactly zero and so is its gain (a parameter
   /// fixed at a value, e.g. an effect a diagnosis holds). The update leaves it untouched.
   bool heldState(int j, S pht_j) const { return p_(j, j) == S(0) && pht_j == S(0); }
+
+  /// The beam a scan fuses for slot k (LaserGeometry: beam selection): every beam when
+  /// stride is 1; else the slot's beam at this scan's phase, or the next of its slot that
+  /// has a return.
+  template <int MaxBeams>
+  static int slotBeamWithReturn(const LaserGeometry<S, MaxBeams>& laser, const S* ranges, int k, int phase, int stride,
+                                S range_max) {
+    if (stride <= 1) return k;
+    int i = laser.slotBeam(k, phase);
+    for (int j = 1; j < stride && !(ranges[i] > S(0) && ranges[i] <= range_max); ++j) {
+      i = laser.slotBeam(k, phase + j < stride ? phase + j : phase + j - stride);
+    }
+    return i;
+  }
+
+  /// One beam of a scan update: fused (or refused and counted), reported to `observe`, and
+  /// the running heading cos/sin and the scan's summary updated.
+  template <typename MapT, int MaxBeams, typename Observer>
+  inline void fuseScanBeam(const MapT& map, const LaserGeometry<S, MaxBeams>& laser, int i, const S* ranges, S* c,
+                           S* sn, Observer& observe, ScanStats<S>* st) {
+    S nis = S(0);
+    S dth = S(0);
+    constexpr bool kObserved = !std::is_same_v<std::decay_t<Observer>, NoObserver>;
+    S predicted = S(0);
+    S variance = S(0);
+    const Status s = updateBeamCS<kObserved>(map, laser, i, ranges[i], *c, *sn, &nis, &dth, &predicted, &variance);
+    if constexpr (kObserved) observe(BeamRecord{i, s, ranges[i], predicted, variance});
+    if (s == Status::kOk) {
+      ++st->used;
+      st->nis_sum += nis;
+      rotate(c, sn, dth);
+    } else {
+      ++st->skipped;
+    }
+  }
 
   /// The selected beams of a scan (beamOfSlot(k), k < laser.used()) sorted by their NIS
   /// at the prior mean, smallest first; beams that cannot be predicted go last, in slot

@@ -22,8 +22,11 @@ struct PoseFix {
 
 /// MapArg: a SegmentMap (owns its walls; copied with the estimator) or a MapView (the tables
 /// live elsewhere, e.g. in flash; they must outlive the estimator).
+/// kOrderable: the estimator can fuse a scan's beams most consistent first when its
+/// AkfConfig asks (order_by_prior_nis; the host's estimators). Off, that code is not
+/// compiled in, and the flag is ignored (the firmware: its cycle and flash are unchanged).
 template <typename ModelT, typename MapArg = SegmentMap<typename ModelT::Scalar, 16>, int MaxWindow = 32,
-          int MaxBeams = 64>
+          int MaxBeams = 64, bool kOrderable = false>
 class Estimator {
  public:
   using Model = ModelT;
@@ -84,7 +87,14 @@ class Estimator {
   template <typename Observer>
   CycleResult<S> measureStep(const S* ranges, Observer&& observe, const PoseFix<S>* fix = nullptr) {
     CycleResult<S> res;
-    if (ranges != nullptr) res.scan = akf_.updateScan(map_, laser_, ranges, observe);
+    if (ranges != nullptr) {
+      if constexpr (kOrderable) {
+        res.scan = akf_.config().order_by_prior_nis ? akf_.updateScanOrdered(map_, laser_, ranges, observe)
+                                                    : akf_.updateScan(map_, laser_, ranges, observe);
+      } else {
+        res.scan = akf_.updateScan(map_, laser_, ranges, observe);
+      }
+    }
     bool measured = res.scan.used > 0;
     if (fix != nullptr) {
       measured = akf_.updatePose(fix->x, fix->y, fix->theta, fix->sx, fix->sy, fix->stheta) == Status::kOk ||

@@ -213,7 +213,7 @@ class Engine {
     map_ = host_map_.view();
     if (log_.has_laser) {
       lc_ = {log_.laser.beams, log_.laser.angle_min, log_.laser.angle_inc, log_.laser.range_max,
-             log_.laser.sigma, log_.laser.mount_x, log_.laser.mount_y, log_.laser.mount_yaw};
+             opt_.tuning.rangeSigma(log_.laser.sigma), log_.laser.mount_x, log_.laser.mount_y, log_.laser.mount_yaw};
     } else {
       lc_.beams = 0;
     }
@@ -306,8 +306,8 @@ class Engine {
   }
 
   RunOut run(const RunSpec& spec) const {
-    fw::FilterSetup setup;
-    Est est(makeModel(), map_, laser_, {S(setup.akf.max_incidence_rad), S(setup.akf.gate_nis)}, setup.of);
+    const fw::FilterSetup setup = opt_.tuning.setup();
+    Est est(makeModel(), map_, laser_, opt_.tuning.akfConfig<S>(setup), setup.of);
     StateVec x0 = StateVec::Zero();
     x0[0] = log_.init.x;
     x0[1] = log_.init.y;

@@ -16,6 +16,8 @@
 
 #include "odoerr/sim/odolog.hpp"
 
+#include "odoerr/sim/filter_tuning.hpp"
+
 namespace odoerr::sim {
 
 struct DiagnoseOptions {
@@ -31,6 +33,7 @@ struct DiagnoseOptions {
   double k0_w = 1e-4;      ///< diff: initial K_w (m)
   double k0_rho = 1e-3;    ///< sync: initial K_rho (m)
   double k0_theta = 1e-4;  ///< sync: initial K_theta (rad^2/m)
+  FilterTuning tuning;     ///< real-robot settings (the paper's by default)
   // Held-out comparison: k-fold cross-validation over time. After a warm-up the drive is
   // cut into blocks of block_s; fold f holds out every folds-th block (f, f + folds, ...),
   // so that across the folds every block is held out exactly once.

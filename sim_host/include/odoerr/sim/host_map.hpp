@@ -97,6 +97,6 @@ constexpr int kHostMaxBeams = 1024;
 
 /// The host's estimator of model M: any map (through a HostMap's view), any laser.
 template <typename M>
-using HostEstimator = Estimator<M, MapView<typename M::Scalar>, 32, kHostMaxBeams>;
+using HostEstimator = Estimator<M, MapView<typename M::Scalar>, 32, kHostMaxBeams, true>;
 
 }  // namespace odoerr::sim

@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "odoerr/sim/filter_tuning.hpp"
 #include "odoerr/sim/odolog.hpp"
 
 namespace odoerr::sim {
@@ -26,12 +27,8 @@ struct ReplayOptions {
   int beams_used = 0;
   /// Grid cell of the map's index (m); < 0: chosen from the map's size, 0: no index.
   double map_cell_m = -1;
-  /// The innovation gate on the NIS; 0: the filter's default (25, 5 sigma).
-  double gate_nis = 0;
-  /// Prior sigma of the systematic parameters (relative); 0: the paper's (0.2).
-  double param_sigma = 0;
-  /// Fuse each scan's beams most consistent first (AkfConfig::order_by_prior_nis).
-  bool order_beams = false;
+  /// Real-robot settings (the paper's by default).
+  FilterTuning tuning;
 };
 
 struct ReplayParam {

@@ -20,6 +20,9 @@ const char* statusName(Status s);
 double chiSquareSf(double x, double k);
 /// Chi-square quantile (Wilson-Hilferty; accurate to < 1 % for k >= 3).
 double chiSquareQuantile(double p, double k);
+/// Whiteness of a series: its autocorrelation up to min(20, n/5) lags and the Ljung-Box
+/// statistic with its p-value; null when the series has no variance (or no values).
+nlohmann::ordered_json ljungBox(const std::vector<double>& series);
 
 /// One fused scan of a replay, with the motion around it.
 struct ScanRec {
