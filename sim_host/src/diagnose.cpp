@@ -230,7 +230,7 @@ bool diagnoseDrive(const Odolog& log, const DiagnoseOptions& opt, json* out, std
   HeldoutResult held;
   json heldout = nullptr;
   if (held_out && with.features.empty()) {
-    held = compareHeldout(en, {}, with_idx, with.names, opt);
+    held = compareHeldout(en, {}, with_idx, with.names, opt, exclude ? &map_misfit.in_region : nullptr);
     heldout = held.json;
   } else if (held_out) {
     using EnF = Engine<DriveT, Featured>;
@@ -239,14 +239,14 @@ bool diagnoseDrive(const Odolog& log, const DiagnoseOptions& opt, json* out, std
     std::vector<int> added = with_idx;
     if (!after.slots().motion.empty()) added.push_back(ne);
     if (!after.slots().beam.empty()) added.push_back(ne + 1);
-    held = compareHeldout(before, {}, after, added, with.names, opt);
+    held = compareHeldout(before, {}, after, added, with.names, opt, exclude ? &map_misfit.in_region : nullptr);
     heldout = held.json;
   }
   // 7. --with auto: forward selection over the named effects and the discovered features.
   json automatic = nullptr;
   if (with.automatic) {
     std::vector<std::string> final_with;
-    automatic = autoSearch(en, rank, res_base, scales, opt, &final_with);
+    automatic = autoSearch(en, rank, res_base, scales, opt, &final_with, exclude ? &map_misfit.in_region : nullptr);
   }
   if (!opt.suggest_dir.empty()) {
     const Residuals& r = named.empty() || !unexplained["significant"].template get<bool>() ? res_base : res_final;
@@ -274,7 +274,8 @@ bool diagnoseDrive(const Odolog& log, const DiagnoseOptions& opt, json* out, std
   j["unexplained"] = unexplained;
   j["change_points"] = change_points;
   j["map_misfit"] = mapMisfitJson(map_misfit, opt.out_dir.empty() ? "" : "map_grid.csv");
-  j["map_misfit"]["region_beams"] = exclude ? "left out of the ranking" : (opt.map_exclude ? "none" : "kept (--map-beams keep)");
+  j["map_misfit"]["region_beams"] =
+      exclude ? "left out of the ranking and the held-out comparison" : (opt.map_exclude ? "none" : "kept (--map-beams keep)");
   j["map_misfit"]["ranking_with_region_beams"] = ranking_other;
   if (with.automatic) j["auto"] = automatic;
   j["excitation"] = excitation;

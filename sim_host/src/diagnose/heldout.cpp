@@ -18,7 +18,7 @@ constexpr double kLostS = 10.0;  // a fit that fused scans with under a quarter 
 template <typename En>
 HeldoutResult compareHeldout(const En& en, const std::vector<int>& before_idx, const En& en_after,
                              const std::vector<int>& with_idx, const std::vector<std::string>& names,
-                             const DiagnoseOptions& opt) {
+                             const DiagnoseOptions& opt, const std::vector<std::uint8_t>* leave_out) {
   using RunSpec = typename En::RunSpec;
   using RunOut = typename En::RunOut;
   using Drive = typename En::Drive;
@@ -122,6 +122,7 @@ HeldoutResult compareHeldout(const En& en, const std::vector<int>& before_idx, c
     sm->head_sq += r.ho_head_sq;
     sm->nt += r.ho_nt;
   };
+  long n_left_out = 0;  // beam predictions in both runs left out (map regions)
   auto common = [&](RunOut& rb, RunOut& ra) {
     auto byKey = [](const HeldBeam& x, const HeldBeam& y) { return x.key < y.key; };
     std::sort(rb.ho_beams.begin(), rb.ho_beams.end(), byKey);
@@ -134,9 +135,14 @@ HeldoutResult compareHeldout(const En& en, const std::vector<int>& before_idx, c
       } else if (y.key < x.key) {
         ++j;
       } else {
-        if (x.ok && y.ok) {
+        const bool left_out = leave_out != nullptr && x.key >= 0 &&
+                              static_cast<std::size_t>(x.key) < leave_out->size() &&
+                              (*leave_out)[static_cast<std::size_t>(x.key)] != 0;
+        if (x.ok && y.ok && !left_out) {
           take(x, &before, &pb);
           take(y, &after, &pa);
+        } else if (left_out) {
+          ++n_left_out;
         }
         ++i;
         ++j;
@@ -219,6 +225,7 @@ HeldoutResult compareHeldout(const En& en, const std::vector<int>& before_idx, c
              {"after", metrics(after)},
              {"paired", {{"nis", paired(&HeldScan::nis)}, {"nll", paired(&HeldScan::nll)},
                          {"pose_err_m", paired(&HeldScan::pose_err)}}}};
+  res.json["region_beams_left_out"] = leave_out != nullptr ? json(n_left_out) : json(nullptr);
   if (folds == 0) {
     char note[160];
     std::snprintf(note, sizeof note, "no held-out block: the drive is shorter than warm-up + gap + one block (%.1f s)",
@@ -247,7 +254,8 @@ bool writeHeldoutCsv(const std::string& dir, const HeldoutResult& r, std::string
 
 #define ODOERR_HELDOUT(EN) \
   template HeldoutResult compareHeldout<EN>(const EN&, const std::vector<int>&, const EN&, const std::vector<int>&, \
-                                            const std::vector<std::string>&, const DiagnoseOptions&);
+                                            const std::vector<std::string>&, const DiagnoseOptions&, \
+                                            const std::vector<std::uint8_t>*);
 using SyncEngine = Engine<SyncDrive>;
 using DiffEngine = Engine<DiffDrive>;
 using SyncFeatured = Engine<SyncDrive, Featured>;

@@ -4,6 +4,7 @@
 // effects), compared over the beams both predicted, in means and paired by block.
 #pragma once
 
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -21,17 +22,20 @@ struct HeldoutResult {
 /// Compares the model with the effects `before` (indices of the engine's effects) against
 /// the model with `added` too, on held-out data. The two sides may run on different
 /// engines of one type (the same effects, other feature slots: `--with feature:...`).
-/// `names` is what the JSON lists under "with".
+/// `names` is what the JSON lists under "with". `leave_out` (may be null): beams by key
+/// (scan * beams + beam, as RunSpec::scored) that neither side scores, the beams ending in
+/// a region the map gets wrong.
 template <typename En>
 HeldoutResult compareHeldout(const En& before_en, const std::vector<int>& before, const En& after_en,
                              const std::vector<int>& added, const std::vector<std::string>& names,
-                             const DiagnoseOptions& opt);
+                             const DiagnoseOptions& opt, const std::vector<std::uint8_t>* leave_out);
 
 /// The same on one engine.
 template <typename En>
 HeldoutResult compareHeldout(const En& en, const std::vector<int>& before, const std::vector<int>& added,
-                             const std::vector<std::string>& names, const DiagnoseOptions& opt) {
-  return compareHeldout(en, before, en, added, names, opt);
+                             const std::vector<std::string>& names, const DiagnoseOptions& opt,
+                             const std::vector<std::uint8_t>* leave_out) {
+  return compareHeldout(en, before, en, added, names, opt, leave_out);
 }
 
 /// heldout_before.csv and heldout_after.csv in dir (false with *error if not writable).

@@ -140,7 +140,8 @@ FeatureSlots slotsFor(const std::vector<Term>& terms, const Residuals& base) {
 
 template <template <typename> class DriveT>
 json autoSearch(const Engine<DriveT>& en, const Ranking<DriveT>& rank, const Residuals& base, const Scales& scales,
-                const DiagnoseOptions& opt, std::vector<std::string>* final_with) {
+                const DiagnoseOptions& opt, std::vector<std::string>* final_with,
+                const std::vector<std::uint8_t>* leave_out) {
   using EnF = Engine<DriveT, Featured>;
   using RunSpecF = typename EnF::RunSpec;
   const auto& fx = en.effects();
@@ -204,7 +205,7 @@ json autoSearch(const Engine<DriveT>& en, const Ranking<DriveT>& rank, const Res
       std::vector<int> a_idx = indices(cands[c].cat, sl), added;
       for (int i : a_idx)
         if (std::find(b_idx.begin(), b_idx.end(), i) == b_idx.end()) added.push_back(i);
-      const HeldoutResult h = compareHeldout(before, b_idx, after, added, {cands[c].name}, opt);
+      const HeldoutResult h = compareHeldout(before, b_idx, after, added, {cands[c].name}, opt, leave_out);
       const Score s = scoreOf(h.json);
       tried.push_back({{"step", step}, {"added", cands[c].name}, {"paired", h.json["paired"]}, {"kept", false}});
       if (s.ok && (best < 0 || s.z < best_s.z)) {
@@ -358,8 +359,10 @@ bool writeSuggestion(const std::string& dir, const std::vector<Term>& terms, con
 }
 
 template json autoSearch<SyncDrive>(const Engine<SyncDrive>&, const Ranking<SyncDrive>&, const Residuals&, const Scales&,
-                                    const DiagnoseOptions&, std::vector<std::string>*);
+                                    const DiagnoseOptions&, std::vector<std::string>*,
+                                    const std::vector<std::uint8_t>*);
 template json autoSearch<DiffDrive>(const Engine<DiffDrive>&, const Ranking<DiffDrive>&, const Residuals&, const Scales&,
-                                    const DiagnoseOptions&, std::vector<std::string>*);
+                                    const DiagnoseOptions&, std::vector<std::string>*,
+                                    const std::vector<std::uint8_t>*);
 
 }  // namespace odoerr::sim::diag

@@ -37,10 +37,12 @@ bool parseWith(const std::vector<std::string>& tokens, const std::vector<EffectI
 FeatureSlots slotsFor(const std::vector<Term>& terms, const Residuals& base);
 
 /// Forward selection of `--with auto` (docs/diagnostics.md, "From discovery to a model").
-/// Returns the "auto" object of the contract; *final_with the tokens it kept.
+/// Returns the "auto" object of the contract; *final_with the tokens it kept. leave_out:
+/// beams its held-out comparisons do not score (compareHeldout), or null.
 template <template <typename> class DriveT>
 nlohmann::ordered_json autoSearch(const Engine<DriveT>& en, const Ranking<DriveT>& rank, const Residuals& base,
-                                  const Scales& scales, const DiagnoseOptions& opt, std::vector<std::string>* final_with);
+                                  const Scales& scales, const DiagnoseOptions& opt, std::vector<std::string>* final_with,
+                                  const std::vector<std::uint8_t>* leave_out);
 
 /// Writes DIR/discovered_effect.hpp: an effect struct in the tutorial's form for the motion
 /// terms, a measurement struct for the beam terms, with the estimates as comments.
