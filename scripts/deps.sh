@@ -14,7 +14,8 @@ PACKAGES=(
 # Target build and emulation (the test command): bash scripts/deps.sh --target
 if [ "${1:-}" = "--target" ]; then
   PACKAGES+=(gcc-arm-none-eabi libnewlib-arm-none-eabi libstdc++-arm-none-eabi-dev qemu-system-arm
-            chromium)  # the report's render test (headless)
+            chromium   # the report's render test (headless)
+            clang-14 libclang-rt-14-dev)  # the fuzz preset: clang, libFuzzer + ASan/UBSan runtimes
 fi
 
 missing=()

@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # Builds everything and runs all tests: the host suite (unit, Monte Carlo, CLI, the paper
-# acceptance run), then the Cortex-M4F images under QEMU against the host's references.
+# acceptance run), then the Cortex-M4F images under QEMU against the host's references, then
+# the fuzz targets (preset fuzz, clang + libFuzzer + ASan/UBSan): each replays its corpus
+# and runs 20 s from it (ctest label fuzz; docs/reliability.md, "Fuzzing").
 # Usage: scripts/test.sh [--quick]   (--quick leaves out the statistical diagnose tests
 #                                      over many seeds, label diagnose-stats, about 14 minutes;
 #                                      CI and the plain command run them)
@@ -18,3 +20,6 @@ esac
 cmake --preset cortex-m4f
 cmake --build --preset cortex-m4f -j 2
 ctest --preset cortex-m4f
+cmake --preset fuzz
+cmake --build --preset fuzz -j 2
+ctest --preset fuzz
