@@ -5,6 +5,8 @@
 #include <cstddef>
 #include <cstdint>
 
+#include "odoerr/fw/tape.hpp"
+
 #if defined(ODOERR_TARGET_MPS2)
 #include "board.hpp"
 #include "semihosting.hpp"
@@ -51,6 +53,33 @@ inline Paths paths(int argc, char** argv, const char* in, const char* out) {
   (void)argv;
 #endif
   return {in, out};
+}
+
+/// A tape replay's files: the tape (its header read) and the results file.
+struct TapeFiles {
+  int in = -1;
+  int out = -1;
+  fw::TapeHeader h{};
+  std::size_t read(void* b, std::size_t n) const { return replay_io::read(in, b, n); }
+  std::size_t write(const void* b, std::size_t n) const { return replay_io::write(out, b, n); }
+  void close() const {
+    replay_io::close(in);
+    replay_io::close(out);
+  }
+};
+
+/// Opens the tape and the results file (paths()) and reads the tape's header. 0, or the
+/// replay applications' exit code: 10 no tape, 11 no results file, 2 not a tape header
+/// (or one with more than max_beams beams).
+inline int openTape(int argc, char** argv, TapeFiles* t, int max_beams = 64) {
+  const Paths p = paths(argc, argv, "tape.bin", "out.bin");
+  t->in = openRead(p.in);
+  if (t->in < 0) return 10;
+  t->out = openWrite(p.out);
+  if (t->out < 0) return 11;
+  std::uint8_t hb[fw::kTapeHeaderBytes];
+  if (read(t->in, hb, sizeof hb) != sizeof hb || !fw::decodeHeader(hb, &t->h, max_beams)) return 2;
+  return 0;
 }
 
 }  // namespace odoerr::replay_io

@@ -46,21 +46,7 @@ Comp components(const PoseFixRec& f) {
   return o;
 }
 
-struct Acc {
-  double n = 0, s = 0, s2 = 0;
-  void add(double v) {
-    n += 1;
-    s += v;
-    s2 += v * v;
-  }
-  json mean() const { return n > 0 ? json(s / n) : json(nullptr); }
-  json rms() const { return n > 0 ? json(std::sqrt(s2 / n)) : json(nullptr); }
-  json tstat() const {
-    if (n < 2) return nullptr;
-    const double m = s / n, var = (s2 - s * s / n) / (n - 1);
-    return var > 0 ? json(m / std::sqrt(var / n)) : json(nullptr);
-  }
-};
+using Acc = Moments;
 
 json bins(const std::vector<PoseFixRec>& fixes, const std::vector<Comp>& comp, std::vector<double> edges,
           double (*value)(const PoseFixRec&)) {
@@ -76,10 +62,11 @@ json bins(const std::vector<PoseFixRec>& fixes, const std::vector<Comp>& comp, s
         z[k].add(comp[i].z[k]);
       }
     }
-    arr.push_back({{"lo", edges[b]}, {"hi", edges[b + 1]}, {"count", nis.n}, {"nis_mean", nis.mean()},
-                   {"along_mean_m", c[0].mean()}, {"cross_mean_m", c[1].mean()}, {"heading_mean_rad", c[2].mean()},
-                   {"along_mean_norm", z[0].mean()}, {"cross_mean_norm", z[1].mean()},
-                   {"heading_mean_norm", z[2].mean()}});
+    arr.push_back({{"lo", edges[b]}, {"hi", edges[b + 1]}, {"count", nis.n}, {"nis_mean", jsonOrNull(nis.mean())},
+                   {"along_mean_m", jsonOrNull(c[0].mean())}, {"cross_mean_m", jsonOrNull(c[1].mean())},
+                   {"heading_mean_rad", jsonOrNull(c[2].mean())},
+                   {"along_mean_norm", jsonOrNull(z[0].mean())}, {"cross_mean_norm", jsonOrNull(z[1].mean())},
+                   {"heading_mean_norm", jsonOrNull(z[2].mean())}});
   }
   return arr;
 }
@@ -160,8 +147,8 @@ json poseFixTests(const std::vector<PoseFixRec>& fixes, bool* consistent) {
       a.add(c.v[k]);
       if (std::isfinite(c.z[k])) z.add(c.z[k]);
     }
-    inn[names[k]] = {{"mean", a.mean()}, {"rms", a.rms()}, {"t", a.tstat()}, {"mean_norm", z.mean()},
-                     {"rms_norm", z.rms()}};
+    inn[names[k]] = {{"mean", jsonOrNull(a.mean())}, {"rms", jsonOrNull(a.rms())}, {"t", jsonOrNull(a.tstat())},
+                     {"mean_norm", jsonOrNull(z.mean())}, {"rms_norm", jsonOrNull(z.rms())}};
   }
   t["innovation"] = inn;
   // --- whiteness: Ljung-Box on each normalised component, in fix order.
@@ -195,7 +182,7 @@ json poseFixTests(const std::vector<PoseFixRec>& fixes, bool* consistent) {
   Acc nees;
   for (const PoseFixRec& f : fixes)
     if (f.nees >= 0) nees.add(f.nees);
-  t["nees_pose"] = nees.mean();
+  t["nees_pose"] = jsonOrNull(nees.mean());
   if (nees.n == 0) t["nees_pose_note"] = "no truth in the log";
   // --- the verdict's part: the mean NIS per dof inside its band (never tighter than the
   // laser's 0.8-1.25) and no more windows outside theirs than chance allows.

@@ -58,22 +58,9 @@ double gammaQFraction(double a, double x) {
   return std::exp(-x + a * std::log(x) - std::lgamma(a)) * h;
 }
 
-struct Acc {
-  double n = 0, s = 0, s2 = 0;
-  void add(double v) {
-    n += 1;
-    s += v;
-    s2 += v * v;
-  }
-  double mean() const { return n > 0 ? s / n : 0; }
-  double rms() const { return n > 0 ? std::sqrt(s2 / n) : 0; }
-  /// t statistic of the mean against 0
-  double tstat() const {
-    if (n < 2) return 0;
-    const double var = (s2 - s * s / n) / (n - 1);
-    return var > 0 ? mean() / std::sqrt(var / n) : 0;
-  }
-};
+// The laser statistics report 0 for an empty mean or t (their callers guard what matters).
+double orZero(const std::optional<double>& v) { return v.value_or(0.0); }
+using Acc = Moments;
 
 /// Pose correction of a scan update in the robot frame: along, cross, heading.
 void correction(const ScanRec& r, double* along, double* cross, double* head) {
@@ -152,8 +139,8 @@ DriveStats computeStats(const std::vector<ScanRec>& scans, const std::vector<Bea
   const double n = std::max(1.0, nis_cap.n);
   const double half = 1.96 * std::sqrt(2.0 / n);
   t["innovations"] = nis_cap.n;
-  t["nis_mean"] = nis_cap.mean();
-  t["nis_mean_uncapped"] = nis_raw.mean();
+  t["nis_mean"] = orZero(nis_cap.mean());
+  t["nis_mean_uncapped"] = orZero(nis_raw.mean());
   t["nis_band"] = {1 - half, 1 + half};
   t["beams_gated"] = std::count_if(beams.begin(), beams.end(), [](const BeamRec& b) { return b.status == Status::kGated; });
   // --- per-scan NIS against the 95 % band of its dof.
@@ -194,9 +181,9 @@ DriveStats computeStats(const std::vector<ScanRec>& scans, const std::vector<Bea
   json pb = json::array();
   double worst = 0;
   for (std::size_t i = 0; i < per.size(); ++i) {
-    pb.push_back({{"beam", i}, {"count", per[i].n}, {"mean_norm", per[i].mean()}, {"rms_norm", per[i].rms()},
-                  {"t", per[i].tstat()}});
-    worst = std::max(worst, std::abs(per[i].tstat()));
+    pb.push_back({{"beam", i}, {"count", per[i].n}, {"mean_norm", orZero(per[i].mean())}, {"rms_norm", orZero(per[i].rms())},
+                  {"t", orZero(per[i].tstat())}});
+    worst = std::max(worst, std::abs(orZero(per[i].tstat())));
   }
   t["per_beam"] = pb;
   t["per_beam_max_abs_t"] = worst;
@@ -209,7 +196,9 @@ DriveStats computeStats(const std::vector<ScanRec>& scans, const std::vector<Bea
     cross.add(c);
     head.add(h);
   }
-  auto accJson = [](const Acc& a) { return json{{"mean", a.mean()}, {"rms", a.rms()}, {"t", a.tstat()}}; };
+  auto accJson = [](const Acc& a) {
+    return json{{"mean", orZero(a.mean())}, {"rms", orZero(a.rms())}, {"t", orZero(a.tstat())}};
+  };
   t["pose_correction"] = {{"along_m", accJson(along)}, {"cross_m", accJson(cross)}, {"heading_rad", accJson(head)}};
   // --- OF observables against their predicted means.
   Acc o1, o2;
@@ -218,13 +207,13 @@ DriveStats computeStats(const std::vector<ScanRec>& scans, const std::vector<Bea
     if (std::isfinite(o[1])) o2.add(o[1]);
   }
   t["of_observables"] = {{"updates", obs.size()},
-                         {"z1", {{"mean_norm", o1.mean()}, {"mean_square_norm", o1.n > 0 ? o1.s2 / o1.n : 0.0}}},
-                         {"z2", o2.n > 0 ? json{{"mean_norm", o2.mean()}, {"mean_square_norm", o2.s2 / o2.n}} : json(nullptr)}};
+                         {"z1", {{"mean_norm", orZero(o1.mean())}, {"mean_square_norm", o1.n > 0 ? o1.s2 / o1.n : 0.0}}},
+                         {"z2", o2.n > 0 ? json{{"mean_norm", orZero(o2.mean())}, {"mean_square_norm", o2.s2 / o2.n}} : json(nullptr)}};
   // --- NEES of the pose against truth.
   Acc nees;
   for (const ScanRec& r : scans)
     if (r.nees >= 0) nees.add(r.nees);
-  t["nees_pose"] = nees.n > 0 ? json(nees.mean()) : json(nullptr);
+  t["nees_pose"] = jsonOrNull(nees.mean());
   t["nees_pose_dof"] = 3;
 
   // --- bins.
@@ -248,7 +237,8 @@ DriveStats computeStats(const std::vector<ScanRec>& scans, const std::vector<Bea
       arr.push_back({{"lo", edges[b]}, {"hi", edges[b + 1]}, {"count", cnt},
                      {"nis_mean", cnt > 0 ? json(nis / cnt) : json(nullptr)},
                      {"mean_norm_innovation", cnt > 0 ? json(norm / cnt) : json(nullptr)},
-                     {"along_mean_m", ba.mean()}, {"cross_mean_m", bc.mean()}, {"heading_mean_rad", bh.mean()}});
+                     {"along_mean_m", orZero(ba.mean())}, {"cross_mean_m", orZero(bc.mean())},
+                     {"heading_mean_rad", orZero(bh.mean())}});
     }
     return arr;
   };
@@ -322,7 +312,7 @@ DriveStats computeStats(const std::vector<ScanRec>& scans, const std::vector<Bea
   out.cusum = {{"k", kK}, {"h", kH}, {"alarms", alarms}};
 
   // --- the statistical part of the verdict (docs/diagnostics.md).
-  const double nm = nis_cap.mean();
+  const double nm = orZero(nis_cap.mean());
   out.consistent = nis_cap.n == 0 || (nm > 0.8 && nm < 1.25 && t["windowed_nis_outside_frac"].get<double>() < 0.25);
   t["nis_consistent"] = out.consistent;
   return out;

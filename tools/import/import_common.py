@@ -26,6 +26,17 @@ def parse_number(tok, where, what):
     return v
 
 
+def read_lines(path):
+    """The lines of a UTF-8 text file; InputError naming the file when it cannot be read."""
+    try:
+        with open(path, "r", encoding="utf-8") as f:
+            return f.read().split("\n")
+    except OSError as e:
+        raise InputError(f"{path}: cannot read: {e.strerror or e}") from None
+    except UnicodeDecodeError:
+        raise InputError(f"{path}: not UTF-8 text") from None
+
+
 def read_bytes(path):
     """The bytes of a file, gunzipped when it is gzip data; InputError naming the file."""
     try:

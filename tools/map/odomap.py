@@ -71,12 +71,9 @@ def _numbers(toks, where, what):
 def read(path):
     """(segments M x 4, meta dict, skipped record count) of an odomap file."""
     try:
-        with open(path, "r", encoding="utf-8") as f:
-            lines = f.read().split("\n")
-    except OSError as e:
-        raise OdomapError(f"{path}: cannot read: {e.strerror or e}") from None
-    except UnicodeDecodeError:
-        raise OdomapError(f"{path}: not UTF-8 text") from None
+        lines = import_common.read_lines(path)
+    except import_common.InputError as e:
+        raise OdomapError(str(e)) from None
     segs, meta, skipped, header = [], {}, 0, False
     for no, raw in enumerate(lines, start=1):
         where = f"{path}:{no}"

@@ -24,8 +24,12 @@ samples, row 0 at the top.
 
 import os
 import re
+import sys
 
 import numpy as np
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "import"))
+import import_common  # noqa: E402  (tools/import: the importers' shared file helpers)
 
 KNOWN_KEYS = ("image", "resolution", "origin", "negate", "occupied_thresh", "free_thresh", "mode")
 REQUIRED_KEYS = ("image", "resolution", "origin", "negate", "occupied_thresh", "free_thresh")
@@ -83,12 +87,9 @@ def _scalar(text, where, key):
 def read_yaml(path):
     """The flat key: value mapping of a map YAML file (values as strings, origin as a list)."""
     try:
-        with open(path, "r", encoding="utf-8") as f:
-            lines = f.read().split("\n")
-    except OSError as e:
-        raise MapError(f"{path}: cannot read: {e.strerror or e}") from None
-    except UnicodeDecodeError:
-        raise MapError(f"{path}: not UTF-8 text: not a map YAML file") from None
+        lines = import_common.read_lines(path)
+    except import_common.InputError as e:
+        raise MapError(str(e)) from None
     out = {}
     for no, raw in enumerate(lines, start=1):
         where = f"{path}:{no}"

@@ -22,14 +22,10 @@ using Est = Estimator<Model<DiffDrive<float>>, MapView<float>, 32, kMaxTapeBeams
 }  // namespace
 
 int main(int argc, char** argv) {
-  const io::Paths p = io::paths(argc, argv, "tape.bin", "out.bin");
-  const int in = io::openRead(p.in);
-  if (in < 0) return 10;
-  const int out = io::openWrite(p.out);
-  if (out < 0) return 11;
-  std::uint8_t hb[fw::kTapeHeaderBytes];
-  fw::TapeHeader h;
-  if (io::read(in, hb, sizeof hb) != sizeof hb || !fw::decodeHeader(hb, &h, kMaxTapeBeams) || h.drive != 1) return 2;
+  io::TapeFiles t;
+  if (const int e = io::openTape(argc, argv, &t, kMaxTapeBeams); e != 0) return e;
+  const fw::TapeHeader& h = t.h;
+  if (h.drive != 1) return 2;
   const LaserConfig<float> lc{int(h.beams), h.angle_min, h.angle_inc, h.range_max, h.sigma, 0.0f, 0.0f, 0.0f};
   LaserGeometry<float, kMaxTapeBeams> laser;
   if (!laser.init(lc, int(h.beams_used))) return 6;
@@ -38,10 +34,9 @@ int main(int argc, char** argv) {
   const fw::FilterSetup setup;
   Est est = fw::makeEstimatorOn<Est, DiffDrive>(setup, MapView<float>(kOdoerrMap), laser,
                                                        Pose<double>{h.x0, h.y0, h.theta0}, k0);
-  auto rd = [&](void* b, std::size_t n) { return io::read(in, b, n); };
-  auto wr = [&](const void* b, std::size_t n) { return io::write(out, b, n); };
+  auto rd = [&](void* b, std::size_t n) { return t.read(b, n); };
+  auto wr = [&](const void* b, std::size_t n) { return t.write(b, n); };
   const int rc = fw::replayThrough<kMaxTapeBeams>(est, h, rd, wr, &io::stackHighWater);
-  io::close(in);
-  io::close(out);
+  t.close();
   return rc;
 }

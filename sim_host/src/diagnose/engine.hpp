@@ -342,6 +342,13 @@ class Engine {
     RunOut out;
     std::vector<double> ranges(std::max(1, lc_.beams));
     TruthCursor truth{log_.truth};
+    // The pose's NEES against the truth at t, when the log has truth there (else unchanged).
+    auto neesAt = [&truth](double t, const StateVec& x, const StateMat& p, double* nees) {
+      double tx, ty, tth;
+      if (!truth.at(t, &tx, &ty, &tth)) return;
+      const Eigen::Vector3d e(x[0] - tx, x[1] - ty, wrapAngle(x[2] - tth));
+      *nees = e.dot(p.template topLeftCorner<3, 3>().ldlt().solve(e));
+    };
     double dist = 0;
     double last_anchor = -1e300;
     std::optional<Est> fork;  // kEval: the copy that predicts a held-out block from its anchor
@@ -452,12 +459,7 @@ class Engine {
           rec.w = akf.turnRate();
           rec.s_rev = ctx.s_rev;
           rec.s_signed = ctx.s_enc;
-          double tx, ty, tth;
-          if (truth.at(ev.t, &tx, &ty, &tth)) {
-            const Eigen::Vector3d e(xp[0] - tx, xp[1] - ty, wrapAngle(xp[2] - tth));
-            const Eigen::Matrix3d pp = akf.covariance().template topLeftCorner<3, 3>();
-            rec.nees = e.dot(pp.ldlt().solve(e));
-          }
+          neesAt(ev.t, xp, akf.covariance(), &rec.nees);
           out.scans.push_back(rec);
         }
       } else if (ev.pose >= 0) {
@@ -492,12 +494,7 @@ class Engine {
           fr.nis = nis;
           fr.v = std::hypot(akf.velocityX(), akf.velocityY()) * (ctx.last_sign < 0 ? -1.0 : 1.0);
           fr.w = akf.turnRate();
-          double tx, ty, tth;
-          if (truth.at(ev.t, &tx, &ty, &tth)) {
-            const Eigen::Vector3d e(xm[0] - tx, xm[1] - ty, wrapAngle(xm[2] - tth));
-            const Eigen::Matrix3d pp = akf.covariance().template topLeftCorner<3, 3>();
-            fr.nees = e.dot(pp.ldlt().solve(e));
-          }
+          neesAt(ev.t, xm, akf.covariance(), &fr.nees);
           out.fixes.push_back(fr);
         }
         const PoseFix<S> fix{q.x, q.y, q.theta, q.sx, q.sy, q.stheta};

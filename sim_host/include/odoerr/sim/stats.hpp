@@ -4,6 +4,8 @@
 // NEES, the same binned by motion and place, and CUSUM change alarms.
 #pragma once
 
+#include <cmath>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -20,6 +22,29 @@ const char* statusName(Status s);
 double chiSquareSf(double x, double k);
 /// Chi-square quantile (Wilson-Hilferty; accurate to < 1 % for k >= 3).
 double chiSquareQuantile(double p, double k);
+/// Count, sum and sum of squares of a series, for its mean, RMS and the t statistic of
+/// its mean against 0. Each is empty without the data it needs (no value for the mean and
+/// RMS, fewer than two or no spread for t): the caller says what an empty test reports.
+struct Moments {
+  double n = 0, s = 0, s2 = 0;
+  void add(double v) {
+    n += 1;
+    s += v;
+    s2 += v * v;
+  }
+  std::optional<double> mean() const { return n > 0 ? std::optional<double>(s / n) : std::nullopt; }
+  std::optional<double> rms() const { return n > 0 ? std::optional<double>(std::sqrt(s2 / n)) : std::nullopt; }
+  std::optional<double> tstat() const {
+    if (n < 2) return std::nullopt;
+    const double var = (s2 - s * s / n) / (n - 1);
+    return var > 0 ? std::optional<double>((s / n) / std::sqrt(var / n)) : std::nullopt;
+  }
+};
+/// A Moments figure as JSON: null when empty.
+inline nlohmann::ordered_json jsonOrNull(const std::optional<double>& v) {
+  return v ? nlohmann::ordered_json(*v) : nlohmann::ordered_json(nullptr);
+}
+
 /// Whiteness of a series: its autocorrelation up to min(20, n/5) lags and the Ljung-Box
 /// statistic with its p-value; null when the series has no variance (or no values).
 nlohmann::ordered_json ljungBox(const std::vector<double>& series);
