@@ -4,7 +4,7 @@
 # the fuzz targets (preset fuzz, clang + libFuzzer + ASan/UBSan): each replays its corpus
 # and runs 20 s from it (ctest label fuzz; docs/reliability.md, "Fuzzing").
 # Usage: scripts/test.sh [--quick]   (--quick leaves out the statistical diagnose tests
-#                                      over many seeds, label diagnose-stats, about 19 minutes;
+#                                      over many seeds, label diagnose-stats, about 6 minutes;
 #                                      CI and the plain command run them)
 set -euo pipefail
 mode="${1:-}"

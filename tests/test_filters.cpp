@@ -4,6 +4,7 @@
 
 #include <limits>
 
+#include "odoerr/effects/catalogue.hpp"
 #include "odoerr/sim/paper_experiment.hpp"
 
 using namespace odoerr;
@@ -123,6 +124,90 @@ TEST(AkfHygiene, CovarianceStaysSymmetricWithPositiveDiagonalInFloat) {
     ASSERT_TRUE((p.diagonal().array() > 0.0f).all()) << "cycle " << k;
     ASSERT_EQ(p, p.transpose()) << "cycle " << k;
   }
+}
+
+TEST(AkfSparse, HeldStatesLeaveTheFilterAsIfAbsent) {
+  // A model of more than 16 states updates only the states with variance (Akf::kSparse).
+  // With every wall offset held, it must filter exactly like the small model without them
+  // (dense loops), though the held states have non-zero columns in every beam's H.
+  using effects::RangeBias;
+  using effects::TurnSlip;
+  using Small = Model<DiffDrive<double>, TurnSlip, RangeBias>;
+  using Large = Model<DiffDrive<double>, TurnSlip, effects::WallOffsetN<16>, RangeBias>;
+  static_assert(Small::kStates <= 16 && Large::kStates > 16);
+  DiffDrive<double> drive;
+  drive.wheelbase = 0.5;
+  SegmentMap<double, 8> map;
+  ASSERT_TRUE(map.add({0, 0, 10, 0}));
+  ASSERT_TRUE(map.add({10, 0, 10, 10}));
+  ASSERT_TRUE(map.add({10, 10, 0, 10}));
+  ASSERT_TRUE(map.add({0, 10, 0, 0}));
+  Akf<Small> small{Small(drive)};
+  Akf<Large> large{Large(drive)};
+  Small::StateVec xs;
+  Small::setNominal(xs);
+  xs.head<3>() << 5.0, 4.0, 0.3;
+  Small::StateVec sig_s;
+  sig_s << 0.02, 0.02, 0.01, 0.01, 0.01, 0.01, 0.05, 0.03;
+  Large::StateVec xl;
+  Large::setNominal(xl);
+  Large::StateVec sig_l = Large::StateVec::Zero();  // the wall offsets held: sigma 0
+  constexpr int kTs = Small::offsetOf<TurnSlip>();
+  constexpr int kRb = Small::offsetOf<RangeBias>();
+  constexpr int kTsL = Large::offsetOf<TurnSlip>();
+  constexpr int kRbL = Large::offsetOf<RangeBias>();
+  const int map_s[8] = {0, 1, 2, 3, 4, 5, kTsL, kRbL};  // small index -> large index
+  for (int i = 0; i < 8; ++i) {
+    xl[map_s[i]] = xs[i];
+    sig_l[map_s[i]] = sig_s[i];
+  }
+  static_assert(kTs == 6 && kRb == 7);
+  small.init(xs, sig_s.cwiseAbs2().asDiagonal());
+  large.init(xl, sig_l.cwiseAbs2().asDiagonal());
+  LaserConfig<double> cfg;
+  const auto laser = geometry(cfg);
+  // A robot whose turns slip and whose laser reads 3 cm long: both filters move.
+  double tx = 5.0, ty = 4.0, tth = 0.3;
+  double ranges[kMaxBeams];
+  const Eigen::Matrix<double, 1, 1> k(1e-6);
+  for (int step = 0; step < 400; ++step) {
+    const double r = 0.010, l = step % 100 < 50 ? 0.006 : 0.012;
+    const double dth = 0.97 * (r - l) / 0.5, ds = 0.5 * (r + l);
+    tx += ds * std::cos(tth + 0.5 * dth);
+    ty += ds * std::sin(tth + 0.5 * dth);
+    tth += dth;
+    ASSERT_EQ(small.predict({r, l}, k), Status::kOk);
+    ASSERT_EQ(large.predict({r, l}, k), Status::kOk);
+    if (step % 10 != 9) continue;
+    for (int i = 0; i < laser.beams(); ++i) {
+      const double a = tth + cfg.angle_min + i * cfg.angle_inc;
+      double best = 1e9;
+      const double ca = std::cos(a), sa = std::sin(a);
+      if (ca > 1e-9) best = std::min(best, (10 - tx) / ca);
+      if (ca < -1e-9) best = std::min(best, -tx / ca);
+      if (sa > 1e-9) best = std::min(best, (10 - ty) / sa);
+      if (sa < -1e-9) best = std::min(best, -ty / sa);
+      ranges[i] = best + 0.03;
+    }
+    const auto ss = small.updateScan(map, laser, ranges);
+    const auto sl = large.updateScan(map, laser, ranges);
+    ASSERT_EQ(ss.used, sl.used) << "scan at step " << step;
+    ASSERT_GT(ss.used, 0);
+  }
+  for (int i = 0; i < 8; ++i) {
+    EXPECT_NEAR(large.state()[map_s[i]], small.state()[i], 1e-12 * (1 + std::abs(small.state()[i]))) << i;
+    for (int j = 0; j < 8; ++j) {
+      const double ps = small.covariance()(i, j);
+      EXPECT_NEAR(large.covariance()(map_s[i], map_s[j]), ps, 1e-12 * std::sqrt(small.covariance()(i, i) * small.covariance()(j, j)))
+          << i << "," << j;
+    }
+  }
+  for (int i = 0; i < Large::kStates; ++i) {
+    if (sig_l[i] == 0) {
+      EXPECT_EQ(large.covariance().row(i).cwiseAbs().maxCoeff(), 0.0) << "held state " << i;
+    }
+  }
+  EXPECT_GT(std::abs(small.state()[kRb]), 0.01) << "the range bias was estimated";
 }
 
 namespace {

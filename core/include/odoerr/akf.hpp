@@ -137,23 +137,30 @@ class Akf {
     // its blocked GEMM once rows + cols + depth >= 20, whose workspace may come from the
     // heap (a float model with N >= 9 then failed the firmware's link-time heap trap); for
     // smaller N Eigen already chose the lazy product.
-    const Eigen::Matrix<S, 3, N> fp = f_pose.lazyProduct(p_);
-    StateMat pn = p_;
-    pn.template topRows<3>() = fp;
-    pn.template leftCols<3>() = fp.transpose();
-    pn.template topLeftCorner<3, 3>() =
-        fp.lazyProduct(f_pose.transpose()) + g_pose * q.asDiagonal() * g_pose.transpose();
-    if constexpr (Model::kHasNoiseEffects) {
-      pn.template topLeftCorner<3, 3>() +=
-          d_inc * model_.extraVariance(inc, x_, ctx_).asDiagonal() * d_inc.transpose();
+    if constexpr (kSparse) {
+      if (!predictCovarianceSparse(f_pose, g_pose, q, inc, d_inc)) {
+        ++counters_.bad_predictions;
+        return Status::kBadCovariance;
+      }
+    } else {
+      const Eigen::Matrix<S, 3, N> fp = f_pose.lazyProduct(p_);
+      StateMat pn = p_;
+      pn.template topRows<3>() = fp;
+      pn.template leftCols<3>() = fp.transpose();
+      pn.template topLeftCorner<3, 3>() =
+          fp.lazyProduct(f_pose.transpose()) + g_pose * q.asDiagonal() * g_pose.transpose();
+      if constexpr (Model::kHasNoiseEffects) {
+        pn.template topLeftCorner<3, 3>() +=
+            d_inc * model_.extraVariance(inc, x_, ctx_).asDiagonal() * d_inc.transpose();
+      }
+      // Only the new pose block can be asymmetric by rounding; the rest is copied symmetric.
+      symmetrisePose(pn);
+      if (!poseRowsHealthy(pn)) {
+        ++counters_.bad_predictions;
+        return Status::kBadCovariance;
+      }
+      p_ = pn;
     }
-    // Only the new pose block can be asymmetric by rounding; the rest is copied symmetric.
-    symmetrisePose(pn);
-    if (!poseRowsHealthy(pn)) {
-      ++counters_.bad_predictions;
-      return Status::kBadCovariance;
-    }
-    p_ = pn;
     x_[PoseIdx::kX] = next.x;
     x_[PoseIdx::kY] = next.y;
     x_[PoseIdx::kTheta] = next.theta;
@@ -545,6 +552,12 @@ class Akf {
 
   /// Columns of a beam's H that can be non-zero.
   static constexpr int kHCols = Model::kHasMeasurementEffects ? N : 3;
+  /// Large models (the host's diagnosis composes the whole catalogue, ~47 states, and
+  /// holds most of them: zero variance, zero rows) update only the states with variance
+  /// and the non-zero columns of H. Every term left out is an exact zero, so the result is
+  /// the same as the dense loops'. The firmware's models are small and keep the dense,
+  /// fully unrolled loops whose cost footprint.json reports.
+  static constexpr bool kSparse = N > 16;
 
   /// Predicted range of beam i at the current state (heading cos/sin given) and the first
   /// kHCols entries of its row of H.
@@ -639,14 +652,37 @@ class Akf {
     // P H^T: only the first kHCols columns of H can be non-zero (the pose, or every state
     // when measurement effects are composed in).
     S pht[N];
+    S s = S(0);
+    // kSparse (large host models): the states with variance, and the columns of H that are
+    // non-zero among them; every product skipped is an exact zero (see kSparse).
+    int act[kSparse ? N : 1];
+    int n_act = 0;
+    if constexpr (kSparse) {
+      int hcol[N];
+      int n_h = 0;
+      for (int j = 0; j < N; ++j) {
+        pht[j] = S(0);
+        if (p_(j, j) == S(0)) continue;
+        act[n_act++] = j;
+        if (j < kHCols && hf[j] != S(0)) hcol[n_h++] = j;
+      }
+      for (int a = 0; a < n_act; ++a) {
+        const int j = act[a];
+        S acc = S(0);
+        for (int b = 0; b < n_h; ++b) acc += up(j, hcol[b]) * hf[hcol[b]];
+        pht[j] = acc;
+      }
+      for (int b = 0; b < n_h; ++b) s += hf[hcol[b]] * pht[hcol[b]];
+    } else {
 #pragma GCC unroll 16
-    for (int j = 0; j < N; ++j) {
-      S acc = up(j, 0) * hf[0] + up(j, 1) * hf[1] + up(j, 2) * hf[2];
-      for (int k = 3; k < kHCols; ++k) acc += up(j, k) * hf[k];
-      pht[j] = acc;
+      for (int j = 0; j < N; ++j) {
+        S acc = up(j, 0) * hf[0] + up(j, 1) * hf[1] + up(j, 2) * hf[2];
+        for (int k = 3; k < kHCols; ++k) acc += up(j, k) * hf[k];
+        pht[j] = acc;
+      }
+      s = hf[0] * pht[0] + hf[1] * pht[1] + hf[2] * pht[2];
+      for (int k = 3; k < kHCols; ++k) s += hf[k] * pht[k];
     }
-    S s = hf[0] * pht[0] + hf[1] * pht[1] + hf[2] * pht[2];
-    for (int k = 3; k < kHCols; ++k) s += hf[k] * pht[k];
     s += r;
     if constexpr (kReport) {
       *predicted_out = predicted;
@@ -685,11 +721,20 @@ class Akf {
       x_[j] += pht[j] * k_nu;
       g[j] = pht[j] * root;
     }
+    if constexpr (kSparse) {
+      for (int b = 0; b < n_act; ++b) {
+        const int k = act[b];
+        for (int a = 0; a <= b; ++a) p_(act[a], k) -= g[act[a]] * g[k];
+      }
+    } else {
+      (void)act;
+      (void)n_act;
 #pragma GCC unroll 16
-    for (int j = 0; j < N; ++j) {
+      for (int j = 0; j < N; ++j) {
 #pragma GCC unroll 16
-      for (int k = j; k < N; ++k) {
-        p_(j, k) -= g[j] * g[k];
+        for (int k = j; k < N; ++k) {
+          p_(j, k) -= g[j] * g[k];
+        }
       }
     }
     x_[PoseIdx::kTheta] = wrapAngle(x_[PoseIdx::kTheta]);
@@ -697,6 +742,54 @@ class Akf {
     ++counters_.beams_used;
     if (nis_out != nullptr) *nis_out = nis;
     return Status::kOk;
+  }
+
+  /// predict()'s covariance step for kSparse models: F P F^T over the states with variance
+  /// only (held states have zero rows and columns), written into P in place if healthy.
+  template <typename GPose, typename QVec, typename DInc>
+  bool predictCovarianceSparse(const Eigen::Matrix<S, 3, N>& f_pose, const GPose& g_pose, const QVec& q,
+                               const Increment<S>& inc, const DInc& d_inc) {
+    int act[N];
+    int n_act = 0;
+    for (int j = 0; j < N; ++j) {
+      if (p_(j, j) != S(0)) act[n_act++] = j;
+    }
+    Eigen::Matrix<S, 3, N> fp = Eigen::Matrix<S, 3, N>::Zero();
+    for (int b = 0; b < n_act; ++b) {
+      const int j = act[b];
+      for (int r = 0; r < 3; ++r) {
+        S acc = S(0);
+        for (int a = 0; a < n_act; ++a) acc += f_pose(r, act[a]) * p_(act[a], j);
+        fp(r, j) = acc;
+      }
+    }
+    Eigen::Matrix<S, 3, 3> block = g_pose * q.asDiagonal() * g_pose.transpose();
+    for (int r = 0; r < 3; ++r) {
+      for (int cc = 0; cc < 3; ++cc) {
+        S acc = S(0);
+        for (int a = 0; a < n_act; ++a) acc += fp(r, act[a]) * f_pose(cc, act[a]);
+        block(r, cc) += acc;
+      }
+    }
+    if constexpr (Model::kHasNoiseEffects) {
+      block += d_inc * model_.extraVariance(inc, x_, ctx_).asDiagonal() * d_inc.transpose();
+    } else {
+      (void)d_inc;
+    }
+    for (int r = 0; r < 3; ++r) {
+      for (int cc = r + 1; cc < 3; ++cc) {
+        const S v = S(0.5) * (block(r, cc) + block(cc, r));
+        block(r, cc) = v;
+        block(cc, r) = v;
+      }
+    }
+    fp.template leftCols<3>() = block;
+    bool healthy = fp.allFinite();
+    for (int r = 0; r < 3; ++r) healthy = healthy && block(r, r) > S(0);
+    if (!healthy) return false;
+    p_.template topRows<3>() = fp;
+    p_.template leftCols<3>() = fp.transpose();
+    return true;
   }
 
   static void symmetrisePose(StateMat& p) {
