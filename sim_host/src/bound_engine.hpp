@@ -225,7 +225,9 @@ bool runBound(const Problem<ModelT>& pb, const MapT& map, const LaserGeometry<do
     if (dump) dump_cycles.push_back(dc);
     ++cycles;
     dist += std::hypot(cy.after.x - cy.before.x, cy.after.y - cy.before.y);  // true path length
-    if (dist >= next_record - 1e-9) {
+    if (opt.every_cycles > 0) {
+      if (cycles % opt.every_cycles == 0) out->along.push_back(record());
+    } else if (dist >= next_record - 1e-9) {
       out->along.push_back(record());
       while (next_record <= dist + 1e-9) next_record += opt.every_m;
     }

@@ -62,6 +62,8 @@ struct BoundResult {
 
 struct BoundOptions {
   double every_m = 1.0;  ///< spacing of the along-path records
+  /// When > 0: a record every this many cycles instead (the paper experiment's CSV rows).
+  int every_cycles = 0;
   /// Optional: write the linearisation (per cycle F, G, dQ/dK, beam rows H) as JSON for
   /// an independent dense computation (tests/bound/dense_check.py).
   std::string dump_path;
