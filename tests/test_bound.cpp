@@ -140,7 +140,7 @@ void checkAgainstBound(DriveKind kind) {
   // (1.4826 MAD)^2, the variance for Gaussian scores. Its relative standard error at n
   // drives is sqrt(2 / n) / sqrt(0.37) (the MAD's efficiency is 37 %): 9.5 % at n = 600,
   // and 4 of them are allowed (38 %). Leaving out the bound's mean term would put the
-  // bound's information 6-42x too low, and this test fails it.
+  // bound's information 4-16x too low on these 3 m drives, and this test fails it.
   const double se = std::sqrt(2.0 / (drives - 1)) / std::sqrt(0.37);
   for (int i = 0; i < DriveT<double>::kNonSys; ++i) {
     const double bound_info = br.final_point.fisher[std::size_t(i)][std::size_t(i)];
