@@ -139,6 +139,15 @@ def plot_acc(ax, data, name):
         y = d[name + "_accuracy_pct"]
         ax.plot(d["distance_m"], y, color=color, lw=1.2, label=label)
         late.append(y[d["distance_m"] >= 1.0])
+    # The Cramér-Rao bound on the experiment's nominal drive (the same for both starts).
+    for init in ("small", "large"):
+        if init in data and name + "_bound_pct" in data[init]:
+            d = data[init]
+            ax.plot(d["distance_m"], d[name + "_bound_pct"], color="k", ls=":",
+                    lw=1.4, label="Cramér-Rao bound")
+            b = d[name + "_bound_pct"]
+            late.append(b[d["distance_m"] >= 1.0])
+            break
     # Clip to the 99th percentile after the first metre so the early
     # transient does not flatten the rest of the curve.
     late = np.concatenate(late) if late else np.array([])
@@ -217,7 +226,7 @@ def main():
     args = ap.parse_args()
 
     names = sorted({n for _, n in LAYOUT[args.drive]})
-    needed = [n + s for n in names for s in ("_mean", "_accuracy_pct", "_true")]
+    needed = [n + s for n in names for s in ("_mean", "_accuracy_pct", "_true", "_bound_pct")]
     data = load_csv(args.csv, needed + POSE_COLS)
     for init, label, _ in STARTS:
         if init not in data:

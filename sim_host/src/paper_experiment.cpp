@@ -1,5 +1,7 @@
 #include "odoerr/sim/paper_experiment.hpp"
 
+#include "odoerr/sim/bound.hpp"
+
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -115,6 +117,34 @@ void runAll(const PaperOptions& opt, PaperResult& res) {
 
 }  // namespace
 
+namespace {
+/// The bound at every record of the cases: run 0's drive (seed opt.seed), a bound record
+/// every record_every cycles, which are the cases' records after the first (distance 0).
+void addBound(const PaperOptions& opt, PaperResult* res) {
+  const auto t0 = std::chrono::steady_clock::now();
+  BoundOptions bo;
+  bo.every_cycles = opt.record_every;
+  BoundResult br;
+  std::string err;
+  if (!boundOfSimulatedDrive(opt.drive, opt.sim, opt.seed, opt.setup, bo, &br, &err)) {
+    throw std::runtime_error("the bound on the nominal drive: " + err);
+  }
+  const std::size_t records = res->cases.front().distance_m.size();
+  const std::size_t params = res->cases.front().names.size();
+  res->bound_pct.assign(records, std::vector<double>(params, std::nan("")));
+  auto row = [&](std::size_t r, const BoundPoint& bp) {
+    std::size_t q = 0;
+    for (const auto& v : bp.systematic) res->bound_pct[r][q++] = v.bound_pct >= 0 ? v.bound_pct : std::nan("");
+    for (const auto& v : bp.nonsystematic) res->bound_pct[r][q++] = v.bound_pct >= 0 ? v.bound_pct : std::nan("");
+  };
+  // Records: cycle 0, then every record_every cycles, and the last cycle when steps is not
+  // a multiple (runDrive's); the bound's along-path records are the multiples.
+  for (std::size_t r = 1; r < records && r - 1 < br.along.size(); ++r) row(r, br.along[r - 1]);
+  if (opt.sim.steps % opt.record_every != 0) row(records - 1, br.final_point);
+  res->bound_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+}  // namespace
+
 PaperResult runPaperExperiment(const PaperOptions& opt) {
   if (opt.runs <= 0) throw std::invalid_argument("--runs must be a positive integer");
   if (opt.record_every <= 0) throw std::invalid_argument("record interval must be positive");
@@ -130,6 +160,7 @@ PaperResult runPaperExperiment(const PaperOptions& opt) {
   }
   res.wall_time_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  addBound(opt, &res);
   return res;
 }
 
@@ -149,6 +180,8 @@ std::string summaryJson(const PaperResult& r) {
   j["drive"] = toString(r.drive);
   j["runs"] = r.runs;
   j["wall_time_s"] = std::round(r.wall_time_s * 1000.0) / 1000.0;
+  j["bound"] = {{"what", "Cramér-Rao bound (odoerr bound) on run 0's drive, 100 sigma / true value"},
+                {"wall_time_s", std::round(r.bound_time_s * 1000.0) / 1000.0}};
   json cases = json::array();
   for (const CaseResult& c : r.cases) {
     json jc;
@@ -162,9 +195,11 @@ std::string summaryJson(const PaperResult& r) {
       json params = json::object();
       for (std::size_t q = 0; q < c.names.size(); ++q) {
         const Stat& s = c.params[i][q];
+        const double b = r.bound_pct.empty() ? std::nan("") : r.bound_pct[i][q];
         params[c.names[q]] = {{"true", s.truth},
                               {"mean", s.mean},
                               {"accuracy_pct", s.accuracy_pct},
+                              {"bound_pct", std::isfinite(b) ? json(b) : json(nullptr)},
                               {"rmse", s.rmse}};
       }
       cp["params"] = params;
@@ -182,7 +217,7 @@ std::string paperCsv(const PaperResult& r) {
   std::string out = "init,distance_m";
   const CaseResult& c0 = r.cases.front();
   for (const std::string& n : c0.names) {
-    for (const char* suffix : {"_mean", "_accuracy_pct", "_rmse", "_sigma_mean", "_true"}) {
+    for (const char* suffix : {"_mean", "_accuracy_pct", "_rmse", "_sigma_mean", "_true", "_bound_pct"}) {
       out += "," + n + suffix;
     }
   }
@@ -196,12 +231,14 @@ std::string paperCsv(const PaperResult& r) {
     for (std::size_t i = 0; i < c.distance_m.size(); ++i) {
       out += toString(c.start);
       num(c.distance_m[i]);
-      for (const Stat& s : c.params[i]) {
+      for (std::size_t q = 0; q < c.params[i].size(); ++q) {
+        const Stat& s = c.params[i][q];
         num(s.mean);
         num(s.accuracy_pct);
         num(s.rmse);
         num(s.sigma_mean);
         num(s.truth);
+        num(r.bound_pct.empty() ? std::nan("") : r.bound_pct[i][q]);
       }
       num(c.pos_rms_m[i]);
       num(c.heading_rms_rad[i]);

@@ -19,5 +19,7 @@ void registerMapCommands(CLI::App& app, cli::Commands& cmds);
 void registerEvaluateCommands(CLI::App& app, cli::Commands& cmds);
 /// import optiodom|carmen (cmd_import.cpp).
 void registerImportCommands(CLI::App& app, cli::Commands& cmds);
+/// bound (cmd_bound.cpp).
+void registerBoundCommand(CLI::App& app, cli::Commands& cmds);
 
 }  // namespace odoerr

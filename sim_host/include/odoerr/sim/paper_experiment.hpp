@@ -45,6 +45,11 @@ struct PaperResult {
   int runs = 0;
   double wall_time_s = 0;
   std::vector<CaseResult> cases;  ///< small, large
+  /// The Cramér-Rao bound (odoerr bound) on the experiment's nominal drive (run 0's truth
+  /// path), in %, at every record of the cases ([record][param], systematic then
+  /// non-systematic; NaN where undefined, e.g. at distance 0), and its computing time.
+  std::vector<std::vector<double>> bound_pct;
+  double bound_time_s = 0;
 };
 
 const char* toString(DriveKind d);
