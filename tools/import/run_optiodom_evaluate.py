@@ -53,12 +53,12 @@ def setOf(log):
     return os.path.basename(log).split("_run-")[0]
 
 
-def crossValidateFixSigma(odoerr, cal, jitter, out_dir):
+def crossValidateFixSigma(odoerr, cal, jitter, out_dir, extra=()):
     """The fixes' sigmas chosen inside the calibration logs alone (crossValidate). The
     candidates: the motion capture's jitter times 1, 2, 4 (position; never below the jitter)
     by 1/4, 1/2, 1, 2 (heading), fixed before any result was seen."""
     cands = [(jitter[0] * fx, jitter[1] * ft) for fx in (1, 2, 4) for ft in (0.25, 0.5, 1, 2)]
-    best, table = crossValidate(odoerr, cal, [["--fix-sigma", "%.9g,%.9g" % c] for c in cands], out_dir)
+    best, table = crossValidate(odoerr, cal, [["--fix-sigma", "%.9g,%.9g" % c, *extra] for c in cands], out_dir)
     for t, c in zip(table, cands):
         t["sigma_xy_m"], t["sigma_theta_rad"] = c
     return table[best], table
@@ -196,7 +196,7 @@ def main():
         else:
             cv_with = None
         if a.evaluate_fix_sigma == "cv":
-            best, table = crossValidateFixSigma(a.odoerr, cal, jitter, a.out)
+            best, table = crossValidateFixSigma(a.odoerr, cal, jitter, a.out, with_args)  # after the terms
             cv = {"chosen": best, "candidates": table}
             fix = ["--fix-sigma", "%.9g,%.9g" % (best["sigma_xy_m"], best["sigma_theta_rad"])]
         else:
