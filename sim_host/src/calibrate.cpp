@@ -22,11 +22,14 @@ constexpr double kFeaturePrior = 0.1;
 
 template <typename Effects>
 bool calibrateImpl(const std::vector<Odolog>& logs, const std::vector<std::string>& with,
-                   const std::vector<diag::Term>& features, Calibration* out, std::string* error) {
+                   const std::vector<diag::Term>& features, Calibration* out, std::string* error,
+                   const DiagnoseOptions& base) {
   using En = diag::Engine<DiffDrive, Effects>;
   constexpr int kD = En::kD;
-  DiagnoseOptions opt;
+  DiagnoseOptions opt = base;
   opt.with = with;
+  double nis_sum = 0, nis_xy_sum = 0, nis_th_sum = 0;
+  long n_fix = 0;
   typename En::StateVec x = En::StateVec::Zero();
   typename En::StateMat p = En::StateMat::Zero();
   typename En::KVec k = En::KVec::Zero();
@@ -52,6 +55,7 @@ bool calibrateImpl(const std::vector<Odolog>& logs, const std::vector<std::strin
         if (en.effects()[e].name == "feature_motion") feature_effect = static_cast<int>(e);
       en.freeEffect(&s, feature_effect);
     }
+    s.record = true;  // the pose fixes' innovations (FixNis)
     if (carried) {
       s.carry_x = &x;
       s.carry_p = &p;
@@ -65,6 +69,17 @@ bool calibrateImpl(const std::vector<Odolog>& logs, const std::vector<std::strin
       *error = log.path + ": no measurement was fused (no pose fix, and no laser scan against map walls); "
                "nothing to calibrate on";
       return false;
+    }
+    for (const auto& f : r.fixes) {
+      const Eigen::Map<const Eigen::Matrix3d> sm(f.s);
+      const Eigen::Vector3d nu(f.nu[0], f.nu[1], f.nu[2]);
+      const double nxy = nu.head<2>().dot(sm.topLeftCorner<2, 2>().ldlt().solve(nu.head<2>()));
+      const double nth = nu[2] * nu[2] / sm(2, 2);
+      if (!std::isfinite(f.nis) || !std::isfinite(nxy) || !std::isfinite(nth)) continue;
+      nis_sum += f.nis;
+      nis_xy_sum += nxy;
+      nis_th_sum += nth;
+      ++n_fix;
     }
     x = r.x;
     p = r.p;
@@ -102,6 +117,9 @@ bool calibrateImpl(const std::vector<Odolog>& logs, const std::vector<std::strin
   for (int i = 0; i < 3; ++i) cal.sigma[i] = std::sqrt(p(kD + i, kD + i));
   cal.k_w = k[0];
   cal.k_w_sigma = std::sqrt(pk(0, 0));
+  const double nan = std::nan("");
+  cal.fix_nis = {n_fix, n_fix ? nis_sum / (3.0 * double(n_fix)) : nan, n_fix ? nis_xy_sum / (2.0 * double(n_fix)) : nan,
+                 n_fix ? nis_th_sum / double(n_fix) : nan};
   *out = cal;
   return true;
 }
@@ -109,7 +127,7 @@ bool calibrateImpl(const std::vector<Odolog>& logs, const std::vector<std::strin
 }  // namespace
 
 bool calibrateOnLogs(const std::vector<Odolog>& logs, const std::vector<std::string>& with, Calibration* out,
-                     std::string* error) {
+                     std::string* error, const DiagnoseOptions& base) {
   if (logs.empty()) {
     *error = "no calibration log";
     return false;
@@ -145,8 +163,79 @@ bool calibrateOnLogs(const std::vector<Odolog>& logs, const std::vector<std::str
       return false;
     }
   }
-  if (ws.features.empty()) return calibrateImpl<effects::Catalogue>(logs, catalogue, {}, out, error);
-  return calibrateImpl<diag::Featured>(logs, catalogue, ws.features, out, error);
+  if (ws.features.empty()) return calibrateImpl<effects::Catalogue>(logs, catalogue, {}, out, error, base);
+  return calibrateImpl<diag::Featured>(logs, catalogue, ws.features, out, error, base);
+}
+
+void setFixSigma(std::vector<Odolog>* logs, double sxy, double stheta) {
+  for (Odolog& log : *logs)
+    for (OdologPose& q : log.poses) {
+      q.sx = sxy;
+      q.sy = sxy;
+      q.stheta = stheta;
+    }
+}
+
+void scaleFixSigma(std::vector<Odolog>* logs, double scale) {
+  for (Odolog& log : *logs)
+    for (OdologPose& q : log.poses) {
+      q.sx *= scale;
+      q.sy *= scale;
+      q.stheta *= scale;
+    }
+}
+
+bool chooseFixSigma(const std::vector<Odolog>& logs, const std::vector<std::string>& with,
+                    const DiagnoseOptions& base, FixSigmaChoice* out, std::string* error) {
+  FixSigmaChoice c;
+  const OdologPose* first = nullptr;
+  for (const Odolog& log : logs)
+    if (!first && !log.poses.empty()) first = &log.poses.front();
+  if (!first) {
+    *error = "--fix-sigma auto: the calibration logs have no pose fix";
+    return false;
+  }
+  // NIS per dof at scale s (NaN when no fix was fused)
+  auto nisAt = [&](double s, double* nis) {
+    std::vector<Odolog> scaled = logs;
+    scaleFixSigma(&scaled, s);
+    Calibration cal;
+    if (!calibrateOnLogs(scaled, with, &cal, error, base)) return false;
+    *nis = cal.fix_nis.per_dof;
+    c.trace.push_back({s, *nis});
+    return true;
+  };
+  double lo = std::log(1.0 / 16), hi = std::log(16.0), n_lo = 0, n_hi = 0;
+  if (!nisAt(std::exp(lo), &n_lo) || !nisAt(std::exp(hi), &n_hi)) return false;
+  if (!std::isfinite(n_lo) || !std::isfinite(n_hi)) {
+    *error = "--fix-sigma auto: no pose fix was fused in the calibration";
+    return false;
+  }
+  double chosen = 0;
+  if (n_lo <= 1) {
+    chosen = lo;
+    c.note = "the NIS per dof is at most 1 already at 1/16 of the logs' sigmas: the smallest scale tried is taken";
+  } else if (n_hi >= 1) {
+    chosen = hi;
+    c.note = "the NIS per dof is at least 1 still at 16 times the logs' sigmas: the largest scale tried is taken";
+  } else {
+    for (int i = 0; i < 7; ++i) {
+      const double mid = 0.5 * (lo + hi);
+      double n = 0;
+      if (!nisAt(std::exp(mid), &n)) return false;
+      if (n > 1) {
+        lo = mid;
+      } else {
+        hi = mid;
+      }
+    }
+    chosen = 0.5 * (lo + hi);
+  }
+  c.scale = std::exp(chosen);
+  c.sigma_xy = first->sx * c.scale;
+  c.sigma_theta = first->stheta * c.scale;
+  *out = c;
+  return true;
 }
 
 }  // namespace odoerr::sim

@@ -6,7 +6,9 @@ the circles of the other direction (both ways), and on the ivanjko runs (another
 1 m only: they are about 2 m long). Writes summary.json, tables.md and two figures.
 
 Usage: run_optiodom_evaluate.py OUT_DIR [--odoerr BIN] [--data DIR]
-                                [--fix-sigma-xy M] [--fix-sigma-theta RAD] [--quick]
+                                [--fix-sigma-xy M] [--fix-sigma-theta RAD]
+                                [--evaluate-fix-sigma logs|auto|cv|XY,THETA]
+                                [--evaluate-with TERMS|cv] [--quick]
 Exit 77 when the data is absent; 1 when an acceptance criterion fails (--check).
 """
 import argparse
@@ -46,6 +48,59 @@ def mocapJitter(csvs):
     return med(xy), med(th)
 
 
+def setOf(log):
+    """The recording set of an imported log (logs/TYPE-SETID_run-NN.odolog)."""
+    return os.path.basename(log).split("_run-")[0]
+
+
+def crossValidateFixSigma(odoerr, cal, jitter, out_dir, extra=()):
+    """The fixes' sigmas chosen inside the calibration logs alone (crossValidate). The
+    candidates: the motion capture's jitter times 1, 2, 4 (position; never below the jitter)
+    by 1/4, 1/2, 1, 2 (heading), fixed before any result was seen."""
+    cands = [(jitter[0] * fx, jitter[1] * ft) for fx in (1, 2, 4) for ft in (0.25, 0.5, 1, 2)]
+    best, table = crossValidate(odoerr, cal, [["--fix-sigma", "%.9g,%.9g" % c, *extra] for c in cands], out_dir)
+    for t, c in zip(table, cands):
+        t["sigma_xy_m"], t["sigma_theta_rad"] = c
+    return table[best], table
+
+
+# --evaluate-with cv: the candidate terms, fixed as a generic list: every motion feature
+# that is not a drive parameter already (ds, dth, ds_R, ds_L at the heading are the wheel
+# scales and the wheelbase) and not map-centred, at the heading; and the sideways drift
+# ds@cross of "What discovery finds". "" is the drive parameters alone.
+WITH_CANDIDATES = ["", "feature:ds@cross"] + ["feature:%s@heading" % f for f in (
+    "abs_ds", "abs_dth", "ds_R_speed", "ds_L_speed", "v_w", "v2", "w2", "cos_heading_ds", "sin_heading_ds", "s_ds",
+    "dt")]
+
+
+def crossValidate(odoerr, cal, candidates, out_dir, folds=5):
+    """Chooses among candidate extra arguments of `odoerr evaluate` inside the calibration
+    logs alone: the calibration's recording sets are dealt round-robin into `folds` folds;
+    for each candidate each fold is held out in turn, the rest calibrates and the calibrated
+    odometry's 2 m translation RPE is pooled over the held-out logs' segments (2 m: every
+    calibration log, squares included, has such segments). The lowest pooled mean wins.
+    Returns (best index, [{"args", "segments", "cv_rpe_2m_trans_m"}..])."""
+    sets = sorted({setOf(l) for l in cal})
+    fold_of = {st: i % folds for i, st in enumerate(sets)}
+    table = []
+    for args in candidates:
+        segs = tot = 0.0
+        for f in range(folds):
+            held = [l for l in cal if fold_of[setOf(l)] == f]
+            rest = [l for l in cal if fold_of[setOf(l)] != f]
+            if not held or not rest:
+                continue
+            out = os.path.join(out_dir, "cv.json")
+            run([odoerr, "evaluate", "--calibrate", *rest, "--test", *held, "--json", out, *args])
+            r2 = [p for p in json.load(open(out))["rpe_by_length"] if p["length_m"] == 2][0]["calibrated"]
+            if r2 and r2["segments"]:
+                segs += r2["segments"]
+                tot += r2["trans_m"] * r2["segments"]
+        table.append({"args": args, "segments": segs, "cv_rpe_2m_trans_m": tot / segs if segs else None})
+    ok = [i for i, t in enumerate(table) if t["cv_rpe_2m_trans_m"] is not None]
+    return min(ok, key=lambda i: table[i]["cv_rpe_2m_trans_m"]), table
+
+
 def run(cmd):
     r = subprocess.run(cmd, capture_output=True, text=True)
     if r.returncode != 0:
@@ -62,6 +117,14 @@ def main():
                     help="the fixes' sigma (m); auto (default): the motion capture's own jitter, measured on the "
                          "square runs (calibration data only)")
     ap.add_argument("--fix-sigma-theta", default="auto", help="the fixes' heading sigma (rad); auto as above")
+    ap.add_argument("--evaluate-fix-sigma", default="logs",
+                    help="odoerr evaluate's --fix-sigma for each split's calibration: logs (default: the imported sigmas as they are), auto (the imported "
+                         "sigmas times the scale that makes the calibration logs' pose-fix NIS per dof 1), "
+                         "cv (cross-validated inside each split's calibration logs, crossValidateFixSigma), "
+                         "or XY,THETA (docs/real-data.md: why auto is not the default here)")
+    ap.add_argument("--evaluate-with", default="",
+                    help="odoerr evaluate's --with for each split's calibration: a term list, or cv (chosen among "
+                         "WITH_CANDIDATES by cross-validation inside the split's calibration logs); default none")
     ap.add_argument("--quick", action="store_true", help="a small part: 2 squares, 2 circles, 2 ivanjko runs (CI)")
     ap.add_argument("--check", action="store_true", help="exit 1 unless the acceptance criteria hold")
     ap.add_argument("--no-plots", action="store_true")
@@ -110,13 +173,48 @@ def main():
         if not cal or not test:
             continue
         res = {}
+        cv = None
+        with_args = []
+        if a.evaluate_with == "cv":
+            # forward selection: round 1 takes the best of the candidates (none included);
+            # round 2 adds the best second term if it lowers the cross-validated RPE by >= 2 %
+            cands = [["--with", w] if w else [] for w in WITH_CANDIDATES]
+            best, table = crossValidate(a.odoerr, cal, cands, a.out)
+            chosen, score = WITH_CANDIDATES[best], table[best]["cv_rpe_2m_trans_m"]
+            rounds = [[dict(t, **{"with": w}) for t, w in zip(table, WITH_CANDIDATES)]]
+            if chosen:
+                seconds = [chosen + "," + w for w in WITH_CANDIDATES if w and w != chosen]
+                b2, t2 = crossValidate(a.odoerr, cal, [["--with", w] for w in seconds], a.out)
+                rounds.append([dict(t, **{"with": w}) for t, w in zip(t2, seconds)])
+                if t2[b2]["cv_rpe_2m_trans_m"] <= 0.98 * score:
+                    chosen = seconds[b2]
+            cv_with = {"chosen": chosen, "rounds": rounds, "candidates": rounds[-1]}
+            with_args = ["--with", chosen] if chosen else []
+        elif a.evaluate_with:
+            cv_with = None
+            with_args = ["--with", a.evaluate_with]
+        else:
+            cv_with = None
+        if a.evaluate_fix_sigma == "cv":
+            best, table = crossValidateFixSigma(a.odoerr, cal, jitter, a.out, with_args)  # after the terms
+            cv = {"chosen": best, "candidates": table}
+            fix = ["--fix-sigma", "%.9g,%.9g" % (best["sigma_xy_m"], best["sigma_theta_rad"])]
+        else:
+            fix = ["--fix-sigma", a.evaluate_fix_sigma] if a.evaluate_fix_sigma != "logs" else []
         for tag, const in (("umbmark", umb["as_constants_option"]), ("authors", AUTHORS)):
             out = os.path.join(a.out, "evaluate-%d-%s.json" % (len(results), tag))
-            run([a.odoerr, "evaluate", "--calibrate", *cal, "--test", *test, "--json", out, "--constants", const])
+            run([a.odoerr, "evaluate", "--calibrate", *cal, "--test", *test, "--json", out, "--constants", const, *fix,
+                 *with_args])
             res[tag] = json.load(open(out))
+            fs = res[tag]["calibrated"]["fix_sigma"]
+            if fs["mode"] == "auto":  # the second run takes the same choice, given explicitly
+                fix = ["--fix-sigma", "%.9g,%.9g" % (fs["sigma_xy_m"], fs["sigma_theta_rad"])]
         e = res["umbmark"]
         row = {"split": name, "calibration_logs": len(cal), "test_logs": len(test),
                "calibrated": {k: e["calibrated"][k] for k in ("delta_R", "delta_L", "delta_d", "K_w")},
+               "fix_sigma": e["calibrated"]["fix_sigma"], "pose_fix_nis": e["calibrated"]["pose_fix_nis"],
+               "fix_sigma_cv": cv, "with": with_args[1] if with_args else "", "with_cv": cv_with,
+               "effects": e["calibrated"].get("effects", {}),
                "growth": e["growth"], "rpe": {}, "rpe_by_length": []}
         for L in ("1m", "5m"):
             row["rpe"][L] = {"nominal": e["rpe"][L]["nominal"], "umbmark": e["rpe"][L]["constants"],
@@ -150,6 +248,7 @@ def main():
                        "growth_ratio_observed_to_predicted": None,
                        "pass": 1 - pooled["odoerr"] / pooled["nominal"] >= 0.30 and pooled["odoerr"] <= pooled["umbmark"]})
     summary = {"data": data, "fix_sigma_xy_m": float(a.fix_sigma_xy), "fix_sigma_theta_rad": float(a.fix_sigma_theta),
+               "evaluate_fix_sigma": a.evaluate_fix_sigma,
                "quick": a.quick, "umbmark": umb, "authors_constants": AUTHORS, "splits": results, "acceptance": checks}
     json.dump(summary, open(os.path.join(a.out, "summary.json"), "w"), indent=2)
     md = ["| split | constants | 1 m trans (mm) | 1 m rot (deg) | 5 m trans (mm) | 5 m rot (deg) | 5 m trans RMSE (mm) |",
@@ -162,17 +261,34 @@ def main():
             md.append("| %s | %s | %s | %s | %s | %s | %s |" % (
                 r["split"], k, fmt(a1["trans_m"], 1e3), fmt(a1["rot_rad"], deg), fmt(a5["trans_m"], 1e3),
                 fmt(a5["rot_rad"], deg), fmt(a5["trans_rmse_m"], 1e3)))
-    md += ["", "| split | delta_R | delta_L | delta_d | K_w (m) | predicted 5 m sigma (mm) | observed 5 m RMSE (mm) |",
-           "|---|---|---|---|---|---|---|"]
+    md += ["", "| split | fix sigma xy (mm) | fix sigma theta (mrad) | calibration NIS per dof (all / xy / heading) "
+               "| delta_R | delta_L | delta_d | K_w (m) | predicted 5 m sigma (mm) | observed 5 m RMSE (mm) |",
+           "|---|---|---|---|---|---|---|---|---|---|"]
     for r in results:
-        c, g = r["calibrated"], r["growth"]
-        md.append("| %s | %.5f | %.5f | %.5f | %.3g | %s | %s |" % (
-            r["split"], c["delta_R"], c["delta_L"], c["delta_d"], c["K_w"], fmt(g["predicted_sigma_5m_m"], 1e3),
+        c, g, fs, nis = r["calibrated"], r["growth"], r["fix_sigma"], r["pose_fix_nis"]
+        sxy = fs.get("sigma_xy_m", float(a.fix_sigma_xy))
+        sth = fs.get("sigma_theta_rad", float(a.fix_sigma_theta))
+        nf = lambda v: "—" if v is None else "%.2f" % v
+        md.append("| %s | %.3f | %.2f | %s / %s / %s | %.5f | %.5f | %.5f | %.3g | %s | %s |" % (
+            r["split"], sxy * 1e3, sth * 1e3, nf(nis["per_dof"]), nf(nis["xy_per_dof"]), nf(nis["heading_per_dof"]),
+            c["delta_R"], c["delta_L"], c["delta_d"], c["K_w"], fmt(g["predicted_sigma_5m_m"], 1e3),
             fmt(g["observed_rmse_5m_m"], 1e3)))
+    for r in results:
+        if r["with"]:
+            md.append("%s: --with %s: %s" % (r["split"], r["with"], ", ".join(
+                "%s %.4g ± %.2g" % (k, v["estimate"][0], v["sigma"][0]) for k, v in r["effects"].items())))
+        if r["with_cv"]:
+            for k, rnd in enumerate(r["with_cv"]["rounds"]):
+                md.append("  cross-validated 2 m RPE inside the calibration logs, round %d (mm): " % (k + 1) + ", ".join(
+                    "%s %.2f" % (t["with"] or "none", 1e3 * t["cv_rpe_2m_trans_m"]) for t in rnd))
+        if r["fix_sigma_cv"]:
+            md.append("  fix sigma cross-validation (xy mm / theta mrad: 2 m RPE mm): " + ", ".join(
+                "%.3f/%.2f: %.2f" % (1e3 * t["sigma_xy_m"], 1e3 * t["sigma_theta_rad"], 1e3 * t["cv_rpe_2m_trans_m"])
+                for t in r["fix_sigma_cv"]["candidates"]))
     md += ["", "UMBmark (%d cw + %d ccw squares): E_d %.5f, E_b %.5f -> --constants %s" % (
         umb["runs"]["cw"], umb["runs"]["ccw"], umb["E_d"], umb["E_b"], umb["as_constants_option"])]
-    md.append("Fix sigmas: %s m, %s rad (motion-capture jitter measured on the squares unless given)" % (
-        a.fix_sigma_xy, a.fix_sigma_theta))
+    md.append("Imported fix sigmas: %s m, %s rad (motion-capture jitter measured on the squares unless given); "
+              "evaluate --fix-sigma %s" % (a.fix_sigma_xy, a.fix_sigma_theta, a.evaluate_fix_sigma))
     for c in checks:
         g = c["growth_ratio_observed_to_predicted"]
         md.append("acceptance %s: 5 m RPE %.0f %% below nominal, no worse than UMBmark: %s%s: %s" % (

@@ -13,6 +13,7 @@
 #include "cli.hpp"
 #include "commands.hpp"
 #include "odoerr/sim/evaluate.hpp"
+#include "odoerr/sim/map_io.hpp"
 #include "odoerr/sim/odolog.hpp"
 
 namespace odoerr {
@@ -58,8 +59,35 @@ struct Pooled {
   std::vector<sim::RpeSegment> segs;
 };
 
-int runEvaluate(const std::vector<std::string>& cal_paths, const std::vector<std::string>& test_paths,
-                const std::string& json_out, const std::vector<std::string>& with, const std::string& constants) {
+/// --fix-sigma: "" (the logs' own), "auto", or "XY,THETA" (both > 0).
+bool parseFixSigma(const std::string& s, double* sxy, double* sth, std::string* err) {
+  const auto comma = s.find(',');
+  char* e1 = nullptr;
+  char* e2 = nullptr;
+  if (comma != std::string::npos) {
+    const std::string a = s.substr(0, comma), b = s.substr(comma + 1);
+    *sxy = std::strtod(a.c_str(), &e1);
+    *sth = std::strtod(b.c_str(), &e2);
+    if (!a.empty() && !b.empty() && *e1 == '\0' && *e2 == '\0' && std::isfinite(*sxy) && std::isfinite(*sth) &&
+        *sxy > 0 && *sth > 0)
+      return true;
+  }
+  *err = "--fix-sigma: '" + s + "' is neither auto nor XY,THETA (two positive numbers, m and rad, e.g. 0.0005,0.001)";
+  return false;
+}
+
+struct EvalArgs {
+  std::vector<std::string> cal, test, with;
+  std::string json, constants, fix_sigma, map;
+  cli::TuningArgs tuning;
+};
+
+int runEvaluate(const EvalArgs& a) {
+  const std::vector<std::string>& cal_paths = a.cal;
+  const std::vector<std::string>& test_paths = a.test;
+  const std::string& json_out = a.json;
+  const std::vector<std::string>& with = a.with;
+  const std::string& constants = a.constants;
   std::string err;
   auto fail = [&](const std::string& e) {
     std::fprintf(stderr, "odoerr evaluate: %s\n", e.c_str());
@@ -68,10 +96,43 @@ int runEvaluate(const std::vector<std::string>& cal_paths, const std::vector<std
   sim::OdoConstants user;
   const bool has_user = !constants.empty();
   if (has_user && !parseConstants(constants, &user, &err)) return fail(err);
+  const bool fix_auto = a.fix_sigma == "auto";
+  double fix_xy = 0, fix_th = 0;
+  if (!a.fix_sigma.empty() && !fix_auto && !parseFixSigma(a.fix_sigma, &fix_xy, &fix_th, &err)) return fail(err);
   std::vector<sim::Odolog> cal_logs, test_logs;
   if (!readLogs(cal_paths, &cal_logs, &err) || !readLogs(test_paths, &test_logs, &err)) return fail(err);
+  sim::DiagnoseOptions base;
+  base.tuning = a.tuning.tuning;
+  if (!cal_logs.empty() && !cli::applyK0(a.tuning, cal_logs[0].drive, &base.k0_w, &base.k0_rho, &base.k0_theta, &err))
+    return fail(err);
+  if (!a.map.empty())
+    for (sim::Odolog& log : cal_logs)
+      if (!sim::readMapWalls(a.map, &log.walls, &err)) return fail(err);
+  json fix_j;
+  if (fix_auto) {
+    sim::FixSigmaChoice ch;
+    if (!sim::chooseFixSigma(cal_logs, with, base, &ch, &err)) return fail(err);
+    sim::scaleFixSigma(&cal_logs, ch.scale);
+    json tr = json::array();
+    for (const auto& t : ch.trace) tr.push_back({{"scale", t.first}, {"nis_per_dof", t.second}});
+    fix_j = {{"mode", "auto"},
+             {"rule", "the calibration logs' own fix sigmas times one scale, chosen so that the pose fixes' mean NIS "
+                      "per dof over the calibration is 1 (bisection in log scale over [1/16, 16])"},
+             {"scale", ch.scale},
+             {"sigma_xy_m", ch.sigma_xy},
+             {"sigma_theta_rad", ch.sigma_theta},
+             {"trace", tr}};
+    if (!ch.note.empty()) fix_j["note"] = ch.note;
+    std::fprintf(stderr, "odoerr evaluate: --fix-sigma auto: scale %.3g of the logs' sigmas (%.3g m, %.3g rad)%s%s\n",
+                 ch.scale, ch.sigma_xy, ch.sigma_theta, ch.note.empty() ? "" : "; ", ch.note.c_str());
+  } else if (fix_xy > 0) {
+    sim::setFixSigma(&cal_logs, fix_xy, fix_th);
+    fix_j = {{"mode", "given"}, {"sigma_xy_m", fix_xy}, {"sigma_theta_rad", fix_th}};
+  } else {
+    fix_j = {{"mode", "logs"}};
+  }
   sim::Calibration cal;
-  if (!sim::calibrateOnLogs(cal_logs, with, &cal, &err)) return fail(err);
+  if (!sim::calibrateOnLogs(cal_logs, with, &cal, &err, base)) return fail(err);
 
   const double lengths[2] = {1.0, 5.0};
   const char* names[2] = {"1m", "5m"};
@@ -132,6 +193,13 @@ int runEvaluate(const std::vector<std::string>& cal_paths, const std::vector<std
                      {"sigma", {{"delta_R", cal.sigma[0]}, {"delta_L", cal.sigma[1]}, {"delta_d", cal.sigma[2]},
                                 {"K_w", cal.k_w_sigma}}}};
   if (!with.empty()) j["calibrated"]["effects"] = cal.effects;
+  auto numOrNull = [](double v) { return std::isfinite(v) ? json(v) : json(nullptr); };
+  j["calibrated"]["pose_fix_nis"] = {{"fixes", cal.fix_nis.fixes},
+                                     {"per_dof", numOrNull(cal.fix_nis.per_dof)},
+                                     {"xy_per_dof", numOrNull(cal.fix_nis.xy_per_dof)},
+                                     {"heading_per_dof", numOrNull(cal.fix_nis.heading)}};
+  if (cal.fix_nis.fixes == 0) j["calibrated"]["pose_fix_nis"]["note"] = "no pose fix was fused";
+  j["calibrated"]["fix_sigma"] = fix_j;
   j["calibrated"]["after_each_log"] = cal.per_log;
   for (int l = 0; l < 2; ++l) {
     json r = json::object();
@@ -212,8 +280,7 @@ int runUmbmark(const std::vector<std::string>& paths, double side, const std::st
 
 void registerEvaluateCommands(CLI::App& app, cli::Commands& cmds) {
   struct Opts {
-    std::vector<std::string> cal, test, with;
-    std::string json, constants;
+    EvalArgs ev;
     std::vector<std::string> squares;
     double side = 0.75;
     std::string umb_json;
@@ -221,15 +288,20 @@ void registerEvaluateCommands(CLI::App& app, cli::Commands& cmds) {
   auto o = std::make_shared<Opts>();
   CLI::App* ev = app.add_subcommand(
       "evaluate", "calibrate on some logs, then compare the odometry error (RPE over 1 m and 5 m) on others");
-  ev->add_option("--calibrate", o->cal, "calibration logs, in the order the estimator runs over them")->required();
-  ev->add_option("--test", o->test, "test logs (never seen by the fit); reference: their truth, else their pose fixes")
+  ev->add_option("--calibrate", o->ev.cal, "calibration logs, in the order the estimator runs over them")->required();
+  ev->add_option("--test", o->ev.test, "test logs (never seen by the fit); reference: their truth, else their pose fixes")
       ->required();
-  ev->add_option("--json", o->json, "result file")->required();
-  ev->add_option("--with", o->with, "catalogue effects estimated with the drive parameters")->delimiter(',');
-  ev->add_option("--constants", o->constants,
+  ev->add_option("--json", o->ev.json, "result file")->required();
+  ev->add_option("--with", o->ev.with, "catalogue effects estimated with the drive parameters")->delimiter(',');
+  ev->add_option("--constants", o->ev.constants,
                  "also evaluate these constants: delta_R,delta_L,delta_d (scales of the nominal, e.g. a published "
                  "calibration)");
-  cmds.add(ev, [o]() { return runEvaluate(o->cal, o->test, o->json, o->with, o->constants); });
+  ev->add_option("--fix-sigma", o->ev.fix_sigma,
+                 "the calibration logs' pose-fix sigmas: XY,THETA (m, rad), or auto: the logs' own times the scale at "
+                 "which the calibration's pose-fix NIS per dof is 1 (default: as the logs say)");
+  ev->add_option("--map", o->ev.map, "the map to use instead of the calibration logs' walls (.odomap, or an odolog's walls)");
+  cli::addTuningOptions(ev, &o->ev.tuning);
+  cmds.add(ev, [o]() { return runEvaluate(o->ev); });
 
   CLI::App* um = app.add_subcommand("umbmark", "Borenstein's UMBmark calibration from clockwise and counter-clockwise squares");
   um->add_option("LOG", o->squares, "square runs (closed squares, both directions)")->required();

@@ -10,6 +10,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "odoerr/sim/diagnose.hpp"
 #include "odoerr/sim/odolog.hpp"
 
 namespace odoerr::sim {
@@ -68,8 +69,18 @@ std::vector<Pose2> referenceOf(const Odolog& log, std::string* kind);
 double predictedRpeSigma(const Odolog& log, const OdoConstants& c, double k_w, const std::vector<Pose2>& ref,
                          double delta, double step = 0.1);
 
+/// The pose fixes' normalised innovations over the calibration logs (each fused fix's
+/// innovation against its predicted covariance S): the mean NIS per degree of freedom of
+/// the full 3-dof innovation, of its position block (2 dof) and of its heading (1 dof).
+/// NaN without a fix. A filter whose noise is right has each near 1.
+struct FixNis {
+  long fixes = 0;
+  double per_dof = 0, xy_per_dof = 0, heading = 0;
+};
+
 /// The calibration the online estimator reaches over `logs` in order.
 struct Calibration {
+  FixNis fix_nis;
   OdoConstants c;
   double sigma[3] = {0, 0, 0};
   double k_w = 0, k_w_sigma = 0;
@@ -80,8 +91,28 @@ struct Calibration {
 /// Runs the estimator (diagnose's engine, drive parameters and K free, the `with` catalogue
 /// effects and motion feature terms free) over the logs in order: parameters and covariance (K's too) carried from
 /// one log to the next, the pose re-initialised from each log's init. Diff drive only.
+/// `base` carries the filter settings (tuning, k0_w); its `with` is ignored.
 bool calibrateOnLogs(const std::vector<Odolog>& logs, const std::vector<std::string>& with, Calibration* out,
-                     std::string* error);
+                     std::string* error, const DiagnoseOptions& base = DiagnoseOptions{});
+
+/// Every pose fix of `logs` with the sigmas sxy (x and y) and stheta.
+void setFixSigma(std::vector<Odolog>* logs, double sxy, double stheta);
+/// Every pose fix of `logs` with its sigmas multiplied by `scale`.
+void scaleFixSigma(std::vector<Odolog>* logs, double scale);
+
+/// `odoerr evaluate --fix-sigma auto`: the pose fixes' sigmas chosen from the calibration
+/// logs alone. The logs' own sigmas are multiplied by one scale s (their ratio kept), and s
+/// is the root of "the calibration's pose-fix NIS per dof = 1" (FixNis::per_dof, which
+/// falls as s grows), found by bisection in log s over [1/16, 16] (7 halvings: within
+/// 4.5 %). When the NIS stays on one side of 1 over the whole range, the end is taken and
+/// `note` says so. `trace` has every (scale, NIS per dof) tried.
+struct FixSigmaChoice {
+  double scale = 1, sigma_xy = 0, sigma_theta = 0;  ///< sigmas of the first log's first fix, scaled
+  std::vector<std::pair<double, double>> trace;
+  std::string note;
+};
+bool chooseFixSigma(const std::vector<Odolog>& logs, const std::vector<std::string>& with,
+                    const DiagnoseOptions& base, FixSigmaChoice* out, std::string* error);
 
 /// Borenstein's UMBmark from square runs (each a closed square of side `side_m`, the
 /// return error measured by the log's reference at its end against dead reckoning with the
