@@ -48,6 +48,8 @@ struct FaultPlan {
   int laser_silent_from = -1, laser_silent_steps = 0;
   std::vector<std::pair<std::uint64_t, std::uint64_t>> stalls;  ///< clock stalls [from, until) us
   int probe_step = -1;                  ///< >= 0: the estimate's error is also taken there
+  std::uint64_t setback_at_us = 0, setback_by_us = 0;  ///< the clock set back once
+  const drivers::Calibration* stored = nullptr;        ///< saved in the flash before boot
 };
 
 struct FaultOutcome {
@@ -93,11 +95,16 @@ inline FaultOutcome runFaults(const FaultPlan& plan) {
   sim::HalSimDrive<D> world(cfg, plan.seed, opt);
   sim::StallingClock clock(world.clock());
   for (const auto& s : plan.stalls) clock.addStall(s.first, s.second);
+  if (plan.setback_by_us > 0) clock.setBack(plan.setback_at_us, plan.setback_by_us);
   TapPort port(world.laserPort());
   fw::FilterSetup setup;
   const DiffDrive<float>::NonSysVec k0 = world.sim().trueNonSys().cast<float>();
   Est est = fw::makePaperEstimator<float, DiffDrive>(setup, world.sim().initialEstimate(), k0);
   Store store;
+  if (plan.stored != nullptr) {
+    drivers::CalibrationStore cs(store);
+    (void)cs.save(*plan.stored);
+  }
   sim::SimTelemetrySink tm;
   fw::AppConfig ac;
   ac.ticks_per_unit_a = float(world.sim().ticksA());
@@ -228,7 +235,8 @@ inline FaultOutcome runFaults(const FaultPlan& plan) {
   o.fw_a = app.countA();
   o.fw_b = app.countB();
   o.wraps = std::abs(o.true_a) / 65536 + std::abs(o.true_b) / 65536;
-  const std::size_t done = std::size_t(app.filterTimeUs() / opt.step_us);
+  // (a clock set back leaves the firmware's time that much behind the world's)
+  const std::size_t done = std::size_t((app.filterTimeUs() + plan.setback_by_us) / opt.step_us);
   const auto& truth = world.steps()[done > 0 ? done - 1 : 0].truth;
   const auto& x = est.akf().state();
   const auto& p = est.akf().covariance();

@@ -237,3 +237,39 @@ TEST(FirmwareFaults, PowerLossDuringCalibrationSave) {
   EXPECT_EQ(recovered, boots_restored);
   EXPECT_GT(torn_seen, 0) << "some cuts leave a torn slot, which the boot counts";
 }
+
+TEST(FirmwareFaults, ClockSetBackIsHeldAndCounted) {
+  FaultPlan plan;
+  plan.seed = 71;
+  plan.steps = 3000;
+  plan.setback_at_us = 10000000;
+  plan.setback_by_us = 50000;  // 50 ms back at 10 s: 50 polls read less than before
+  const FaultOutcome o = runFaults(plan);
+  char det[120];
+  std::snprintf(det, sizeof det, "%u polls counted (clock_backwards), their time held at the last reading",
+                o.health.clock_backwards);
+  row("clock set back", "once, by 50 ms", det, o.pos_err < 3 * o.pos_sigma + 0.01 ? "yes" : "no");
+  EXPECT_GE(o.health.clock_backwards, 49u);
+  EXPECT_LE(o.health.clock_backwards, 50u);
+  EXPECT_EQ(o.fw_a, o.true_a) << "no tick lost";
+  expectRecoveredEstimate(o, "clock set back");
+}
+
+TEST(FirmwareFaults, CalibrationOfAnotherDriveIsCountedNotUsed) {
+  drivers::Calibration sync_cal{};
+  sync_cal.drive = 0;  // a sync drive's record in a diff drive's flash
+  sync_cal.count = 4;
+  for (int i = 0; i < 4; ++i) {
+    sync_cal.value[i] = 1.0f;
+    sync_cal.variance[i] = 0.01f;
+  }
+  FaultPlan plan;
+  plan.seed = 72;
+  plan.steps = 200;
+  plan.stored = &sync_cal;
+  const FaultOutcome o = runFaults(plan);
+  row("a stored calibration of another drive", "1 record (drive 0 in a diff drive)",
+      o.health.calibration_foreign == 1 ? "1 counted (calibration_foreign)" : "not counted", "the priors kept");
+  EXPECT_EQ(o.health.calibration_foreign, 1u);
+  EXPECT_EQ(o.health.calibration_restored, 0u);
+}

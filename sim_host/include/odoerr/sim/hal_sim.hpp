@@ -43,17 +43,24 @@ class StallingClock final : public hal::Clock {
  public:
   explicit StallingClock(const hal::Clock& world) : world_(world) {}
   void addStall(std::uint64_t from_us, std::uint64_t until_us) { stalls_.push_back({from_us, until_us}); }
+  /// From at_us on the clock reads by_us less (a clock set back).
+  void setBack(std::uint64_t at_us, std::uint64_t by_us) {
+    back_at_ = at_us;
+    back_by_ = by_us;
+  }
 
  private:
   std::uint64_t DoNowUs() const override {
-    const std::uint64_t t = world_.nowUs();
+    std::uint64_t t = world_.nowUs();
     for (const auto& s : stalls_) {
-      if (t >= s.first && t < s.second) return s.first;
+      if (t >= s.first && t < s.second) t = s.first;
     }
-    return t;
+    return back_by_ > 0 && t >= back_at_ ? t - back_by_ : t;
   }
   const hal::Clock& world_;
   std::vector<std::pair<std::uint64_t, std::uint64_t>> stalls_;
+  std::uint64_t back_at_ = 0;
+  std::uint64_t back_by_ = 0;
 };
 
 class SimEncoderCounter final : public hal::EncoderCounter {
