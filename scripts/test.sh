@@ -2,7 +2,10 @@
 # Builds everything and runs all tests: the host suite (unit, Monte Carlo, CLI, the paper
 # acceptance run), then the Cortex-M4F images under QEMU against the host's references, then
 # the fuzz targets (preset fuzz, clang + libFuzzer + ASan/UBSan): each replays its corpus
-# and runs 20 s from it (ctest label fuzz; docs/reliability.md, "Fuzzing").
+# and runs 20 s from it (ctest label fuzz; docs/reliability.md, "Fuzzing"), then the parser,
+# driver, firmware and map-index suites under ASan + UBSan (preset host-asan-ci; "Sanitizers"). The
+# host suite includes the float32 soak (label soak, 10^6 cycles per drive, about 15 s) and
+# the firmware fault table (test_firmware_faults).
 # Usage: scripts/test.sh [--quick]   (--quick leaves out the statistical diagnose tests
 #                                      over many seeds, label diagnose-stats, about 6 minutes;
 #                                      CI and the plain command run them)
@@ -23,3 +26,6 @@ ctest --preset cortex-m4f
 cmake --preset fuzz
 cmake --build --preset fuzz -j 2
 ctest --preset fuzz
+cmake --preset host-asan
+cmake --build --preset host-asan-ci -j 2
+ctest --preset host-asan-ci

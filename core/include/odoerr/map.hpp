@@ -211,6 +211,13 @@ RayHit<S> walkGrid(const MapTables<S>& m, S px, S py, S ux, S uy, S min_range, S
     dt_y = -g.cell / uy;
     t_max_y = dt_y * fy;
   }
+  if constexpr (!kFenced) {
+    // The borders' distances are measured from p, as the hits' are: the walk starts at t0.
+    // (Measured from the entry point, the walk went on t0 past `far` and out of the grid:
+    // cell_start read before its first element, found by AddressSanitizer.)
+    t_max_x += t0;
+    t_max_y += t0;
+  }
   const int step_x = ux > S(0) ? 1 : -1;
   const int step_y = uy > S(0) ? g.nx : -g.nx;
   int c = iy * g.nx + ix;

@@ -36,6 +36,11 @@ struct AppConfig {
   std::uint32_t telemetry_every = 10;
   std::uint32_t save_every = 3000;
   std::uint8_t drive_id = 1;  ///< stored with the calibration (0 sync, 1 diff)
+  /// No usable scan for this long: the laser is counted silent (once per silence).
+  std::uint32_t laser_timeout_us = 500000;
+  /// The clock unchanged over this many consecutive polls: counted as stalled (once per
+  /// stall). The main loop polls every 1 ms, so 10 polls is 10 ms of a frozen clock.
+  std::uint32_t clock_stall_polls = 10;
 };
 
 /// Health counters published in telemetry (order = kNames).
@@ -51,6 +56,10 @@ struct AppHealth {
   std::uint32_t saves_ok = 0;
   std::uint32_t saves_failed = 0;
   std::uint32_t calibration_restored = 0;
+  std::uint32_t calibration_foreign = 0;  ///< a valid stored record of another drive: not used
+  std::uint32_t laser_silences = 0;       ///< no usable scan for laser_timeout_us (episodes)
+  std::uint32_t clock_stalls = 0;         ///< clock frozen for clock_stall_polls polls (episodes)
+  std::uint32_t clock_backwards = 0;      ///< polls whose clock read less than the last (held)
 };
 
 template <typename EstimatorT>
@@ -88,15 +97,21 @@ class App {
     if (!hal::ok(b)) return b;
     t_f_ = now;
     t_p_ = now;
+    last_now_ = now;
+    last_scan_us_ = now;
     restoreCalibration();
     return hal::Status::kOk;
   }
 
   /// One main-loop iteration.
   void poll() {
-    const std::uint64_t now = clock_.nowUs();
+    const std::uint64_t now = checkedNow();
     (void)parser_.poll(laser_, now);  // data loss is counted by the parser
     if (parser_.scanAvailable()) takeScan();
+    if (!laser_silent_ && now - last_scan_us_ > cfg_.laser_timeout_us) {
+      laser_silent_ = true;  // the filter goes on with odometry alone, and says so
+      ++health_.laser_silences;
+    }
     sampleEncoders(now);
     process(now > cfg_.horizon_us ? now - cfg_.horizon_us : 0);
   }
@@ -109,6 +124,9 @@ class App {
   const drivers::EncoderDriver& encoderB() const { return enc_b_; }
   const drivers::CalibrationStore& calibration() const { return calib_; }
   std::uint64_t filterTimeUs() const { return t_f_; }
+  /// Cumulative ticks integrated from each counter (rejected jumps contribute nothing).
+  std::int64_t countA() const { return count_a_; }
+  std::int64_t countB() const { return count_b_; }
 
  private:
   struct Sample {
@@ -116,6 +134,23 @@ class App {
     std::int64_t a;
     std::int64_t b;
   };
+
+  /// The clock, held monotonic (a reading below the last is counted and replaced by the
+  /// last), with a frozen clock counted once per stall.
+  std::uint64_t checkedNow() {
+    std::uint64_t now = clock_.nowUs();
+    if (now < last_now_) {
+      ++health_.clock_backwards;
+      now = last_now_;
+    }
+    if (now == last_now_) {
+      if (++same_time_polls_ == cfg_.clock_stall_polls) ++health_.clock_stalls;
+    } else {
+      same_time_polls_ = 0;
+    }
+    last_now_ = now;
+    return now;
+  }
 
   void takeScan() {
     drivers::Lms2xxScanInfo info;
@@ -126,6 +161,8 @@ class App {
       return;
     }
     if (scan_pending_) ++health_.scans_overwritten;
+    last_scan_us_ = last_now_;
+    laser_silent_ = false;
     for (int i = 0; i < info.count; ++i) scan_[i] = S(r[i]);
     scan_stamp_ = info.stamp_us;
     scan_pending_ = true;
@@ -282,7 +319,10 @@ class App {
   void restoreCalibration() {
     drivers::Calibration c{};
     if (calib_.load(&c) != drivers::LoadResult::kRestored) return;
-    if (c.drive != cfg_.drive_id || c.count != kP + kM) return;  // another robot's record
+    if (c.drive != cfg_.drive_id || c.count != kP + kM) {  // another robot's record
+      ++health_.calibration_foreign;
+      return;
+    }
     typename Model::StateVec x = est_.akf().state();
     typename Model::StateMat p = est_.akf().covariance();
     for (int i = 0; i < kP; ++i) {
@@ -333,6 +373,10 @@ class App {
   std::uint64_t scan_stamp_ = 0;
   bool scan_pending_ = false;
   bool save_requested_ = false;
+  std::uint64_t last_now_ = 0;      // the last clock reading (held monotonic)
+  std::uint32_t same_time_polls_ = 0;
+  std::uint64_t last_scan_us_ = 0;  // when the last usable scan was taken
+  bool laser_silent_ = false;
 };
 
 }  // namespace odoerr::fw
