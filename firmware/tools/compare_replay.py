@@ -5,6 +5,9 @@ compare_replay.py --drive D REF OUT   : OUT reproduces REF within 0.1 sigma at e
                                         (and reports how many values are bit-identical)
 compare_replay.py --drive D --check-convergence OUT : the systematic parameters converged
 compare_replay.py --drive D --summary OUT : prints the trailer (counts, stack) as JSON
+compare_replay.py --drive D --check-health --beams B OUT : every record finite with positive
+                                        sigmas, and every beam offered (cycles x B) counted
+                                        as used or rejected (the soak, docs/reliability.md)
 """
 import argparse
 import json
@@ -44,12 +47,38 @@ def main():
     ap.add_argument("--drive", required=True, choices=DIMS)
     ap.add_argument("--check-convergence", action="store_true")
     ap.add_argument("--summary", action="store_true")
+    ap.add_argument("--check-health", action="store_true")
+    ap.add_argument("--beams", type=int, default=36)
     ap.add_argument("files", nargs="+")
     a = ap.parse_args()
     if a.summary:
         _, trailer = load(a.files[0], a.drive)
         print(json.dumps(trailer))
         return 0
+    if a.check_health:
+        recs, trailer = load(a.files[0], a.drive)
+        if not recs:
+            print("FAIL: no records")
+            return 1
+        bad = 0
+        min_sigma = math.inf
+        for r in recs:
+            vals = r["x"] + r["k"] + r["sx"] + r["sk"]
+            sig = r["sx"] + r["sk"]
+            if not all(math.isfinite(v) for v in vals) or not all(s > 0 for s in sig):
+                print(f"FAIL: record at cycle {r['cycle']}: not finite or a sigma not positive")
+                bad += 1
+            min_sigma = min([min_sigma] + [s for s in r["sx"]])
+        cycles = recs[-1]["cycle"]
+        offered = cycles * a.beams
+        counted = trailer["beams_used"] + trailer["beams_rejected"]
+        print(f"{len(recs)} records over {cycles} cycles, all finite with positive sigmas: {bad == 0}; "
+              f"smallest state sigma {min_sigma:.3g}; beams offered {offered}, used {trailer['beams_used']}, "
+              f"rejected {trailer['beams_rejected']} (counted {counted})")
+        if counted != offered:
+            print("FAIL: beams offered and beams counted differ")
+            bad += 1
+        return 1 if bad else 0
     if a.check_convergence:
         recs, trailer = load(a.files[0], a.drive)
         last = recs[-1]

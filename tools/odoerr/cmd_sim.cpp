@@ -3,7 +3,9 @@
 // `tape` and `hal-tape` record drives for the firmware images' tests.
 #include <cstdio>
 #include <filesystem>
+#include <limits>
 #include <memory>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -55,8 +57,18 @@ int writeSimLog(const std::string& out, std::uint64_t seed, int steps, const std
 }
 
 /// Records one closed-loop drive as a core-replay tape (firmware/include/odoerr/fw/tape.hpp).
+/// Faults written into a tape's ranges (`odoerr tape --faults`): what the target's soak
+/// replays (docs/reliability.md, "Float32 soak"). The drive itself is recorded clean.
+struct TapeFaults {
+  double drop_scan = 0.10;      ///< a whole scan lost: every range NaN
+  double no_return = 0.01;      ///< one beam without a return: NaN
+  double burst_start = 0.002;   ///< per cycle: an outlier burst begins (10 cycles)
+  double burst_beam = 0.3;      ///< within a burst, a beam reads short (something in front)
+  long dropped_scans = 0, no_return_beams = 0, outlier_beams = 0;
+};
+
 template <template <typename> class DriveT>
-int writeTape(const std::string& out, std::uint64_t seed, int steps, int record_every) {
+int writeTape(const std::string& out, std::uint64_t seed, int steps, int record_every, bool faults) {
   SimConfig cfg;
   cfg.steps = steps;
   FilterSetup setup;
@@ -77,12 +89,35 @@ int writeTape(const std::string& out, std::uint64_t seed, int steps, int record_
   h.sigma = float(cfg.laser.sigma);
   std::string bytes(fw::kTapeHeaderBytes, '\0');
   fw::encodeHeader(h, reinterpret_cast<std::uint8_t*>(bytes.data()));
-  StepSink<DriveT<double>> sink = [&bytes, &cfg](const SimStep<DriveT<double>>& st) {
+  TapeFaults tf;
+  std::mt19937_64 frng(seed ^ 0x5eedfa17ULL);
+  std::uniform_real_distribution<double> unif(0.0, 1.0);
+  int burst_left = 0;
+  StepSink<DriveT<double>> sink = [&](const SimStep<DriveT<double>>& st) {
     std::uint8_t b[4 * (2 + kMaxBeams)];
     const auto& [a, bb] = st.input;  // channels A and B
     fw::putF32(b, float(a));
     fw::putF32(b + 4, float(bb));
-    for (int i = 0; i < cfg.laser.beams; ++i) fw::putF32(b + 8 + 4 * i, float(st.ranges[i]));
+    double r[kMaxBeams];
+    for (int i = 0; i < cfg.laser.beams; ++i) r[i] = st.ranges[i];
+    if (faults) {
+      if (burst_left == 0 && unif(frng) < tf.burst_start) burst_left = 10;
+      const bool drop = unif(frng) < tf.drop_scan;
+      tf.dropped_scans += drop;
+      for (int i = 0; i < cfg.laser.beams; ++i) {
+        if (drop) {
+          r[i] = std::numeric_limits<double>::quiet_NaN();
+        } else if (unif(frng) < tf.no_return) {
+          r[i] = std::numeric_limits<double>::quiet_NaN();
+          ++tf.no_return_beams;
+        } else if (burst_left > 0 && unif(frng) < tf.burst_beam) {
+          r[i] = (0.05 + 0.85 * unif(frng)) * r[i];
+          ++tf.outlier_beams;
+        }
+      }
+      if (burst_left > 0) --burst_left;
+    }
+    for (int i = 0; i < cfg.laser.beams; ++i) fw::putF32(b + 8 + 4 * i, float(r[i]));
     bytes.append(reinterpret_cast<const char*>(b), 4 * (2 + cfg.laser.beams));
   };
   (void)runDrive<double, DriveT>(cfg, seed, NonSysStart::kSmall, setup, steps, sink);
@@ -92,6 +127,11 @@ int writeTape(const std::string& out, std::uint64_t seed, int steps, int record_
     return 1;
   }
   std::fprintf(stderr, "odoerr tape: wrote %d cycles to %s\n", steps, out.c_str());
+  if (faults) {
+    std::fprintf(stderr, "odoerr tape: faults injected: %ld scans dropped (%ld beams), %ld beams without a return, "
+                 "%ld outlier beams\n", tf.dropped_scans, tf.dropped_scans * cfg.laser.beams, tf.no_return_beams,
+                 tf.outlier_beams);
+  }
   return 0;
 }
 
@@ -309,7 +349,7 @@ void registerSimCommands(CLI::App& app, cli::Commands& cmds) {
     std::string drive = "diff", out, map, path;
     std::uint64_t seed = 1;
     int steps = 3000, every = 100, beams_used = 0;
-    bool loop = false;
+    bool loop = false, faults = false;
   };
   auto to = std::make_shared<TapeOpts>();
   auto* tape = app.add_subcommand("tape", "record one drive as a core-replay tape (firmware tests)");
@@ -321,10 +361,17 @@ void registerSimCommands(CLI::App& app, cli::Commands& cmds) {
   auto* tape_map = tape->add_option("--map", to->map, "a diff drive through this map along --path (map images)");
   tape->add_option("--path", to->path, "the path of a --map drive")->needs(tape_map);
   tape->add_flag("--loop", to->loop, "a --map drive starts the path again at its end");
+  tape->add_flag("--faults", to->faults,
+                 "write faults into the ranges: 10 % of scans dropped, 1 % of beams without a return, "
+                 "bursts of short outlier ranges (the target's soak; not with --map)");
   tape->add_option("--beams-used", to->beams_used, "beams the filter fuses per scan (0: all)")
       ->check(CLI::Range(0, 4095));
   cmds.add(tape, [to]() {
     if (!to->map.empty()) {
+      if (to->faults) {
+        std::fprintf(stderr, "odoerr tape: --faults applies to the paper's drives, not to a --map drive\n");
+        return 2;
+      }
       if (to->path.empty()) {
         std::fprintf(stderr, "odoerr tape: a --map drive needs --path\n");
         return 2;
@@ -333,8 +380,8 @@ void registerSimCommands(CLI::App& app, cli::Commands& cmds) {
       if (!loadMapDrive("odoerr tape", to->map, to->path, to->steps, to->loop, &in)) return 1;
       return writeMapTape(in, to->seed, to->beams_used, to->every, to->out);
     }
-    return to->drive == "sync" ? writeTape<SyncDrive>(to->out, to->seed, to->steps, to->every)
-                               : writeTape<DiffDrive>(to->out, to->seed, to->steps, to->every);
+    return to->drive == "sync" ? writeTape<SyncDrive>(to->out, to->seed, to->steps, to->every, to->faults)
+                               : writeTape<DiffDrive>(to->out, to->seed, to->steps, to->every, to->faults);
   });
 
   struct HalOpts {
