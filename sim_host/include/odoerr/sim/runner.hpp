@@ -57,7 +57,9 @@ class MlDriver {
         if (AkfT::expectedRange(map_, laser_, x_pre[0], x_pre[1], std::cos(x_pre[2]), std::sin(x_pre[2]), rec.beam,
                                 S(0), &range, &h3) == Status::kOk) {
           h.template head<3>() = h3.transpose();
-          ml_.beam(h, p_pre, rec.measured - rec.predicted, rec.variance);
+          const S nu = rec.measured - rec.predicted;
+          ml_.beam(h, p_pre, nu, rec.variance);
+          loglik_ += S(-0.5) * (std::log(rec.variance) + nu * nu / rec.variance);
         }
         const auto& p = akf_.covariance();  // upper triangle current within a scan
         for (int j = 0; j < N; ++j) {
@@ -72,12 +74,17 @@ class MlDriver {
 
   const AkfT& akf() const { return akf_; }
   const MlT& ml() const { return ml_; }
+  /// Restarts K (and its recursion) at k; for tests.
+  void restartK(const typename MlT::KVec& k) { ml_.init(k); }
+  /// Sum of -1/2 (log s + nu^2/s) over the fused beams so far (the innovation likelihood).
+  S logLikelihood() const { return loglik_; }
 
  private:
   AkfT akf_;
   typename Est::MapT map_;
   typename Est::LaserT laser_;
   MlT ml_;
+  S loglik_ = S(0);
 };
 
 /// The filter's priors and options, shared with the firmware (fw/paper_setup.hpp).
