@@ -93,7 +93,7 @@ void runAll(const PaperOptions& opt, PaperResult& res) {
       const int run = job % opt.runs;
       const NonSysStart st = starts[job / opt.runs];
       traces[job] = runDrive<double, DriveT>(opt.sim, opt.seed + std::uint64_t(run), st, opt.setup,
-                                             opt.record_every);
+                                             opt.record_every, nullptr, opt.of, opt.ml);
       ++done;
     }
   };
@@ -151,6 +151,7 @@ PaperResult runPaperExperiment(const PaperOptions& opt) {
   if (opt.sim.steps <= 0) throw std::invalid_argument("the drive needs at least one cycle");
   PaperResult res;
   res.drive = opt.drive;
+  res.of = opt.of;
   res.runs = opt.runs;
   const auto t0 = std::chrono::steady_clock::now();
   if (opt.drive == DriveKind::kSync) {
@@ -179,6 +180,7 @@ std::string summaryJson(const PaperResult& r) {
   json j;
   j["drive"] = toString(r.drive);
   j["runs"] = r.runs;
+  j["of"] = toString(r.of);
   j["wall_time_s"] = std::round(r.wall_time_s * 1000.0) / 1000.0;
   j["bound"] = {{"what", "Cramér-Rao bound (odoerr bound) on run 0's drive, 100 sigma / true value"},
                 {"wall_time_s", std::round(r.bound_time_s * 1000.0) / 1000.0}};

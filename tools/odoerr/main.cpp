@@ -79,7 +79,7 @@ int runDiagnose(const std::string& log_path, const std::string& json_path, Diagn
 }
 
 int runPaper(const std::string& drive, int runs, const std::string& out, std::uint64_t seed,
-             int threads, bool plots, const std::string& pose_term, int window) {
+             int threads, bool plots, const std::string& pose_term, int window, const std::string& of, int ml_every) {
   std::string err;
   const fs::path dir(out);
   if (!prepareOutDir(dir, &err)) {
@@ -92,6 +92,8 @@ int runPaper(const std::string& drive, int runs, const std::string& out, std::ui
   opt.seed = seed;
   opt.threads = threads;
   opt.setup.of.window = window;
+  opt.of = of == "ml" ? OfKind::kMl : OfKind::kPaper;
+  opt.ml.every = ml_every;
   opt.setup.of.pose_term = pose_term == "literal" ? PoseErrorTerm::kLiteral : PoseErrorTerm::kExpected;
   ProgressBar bar(std::string("paper ") + drive);
   opt.progress = [&bar](int d, int t) { bar(d, t); };
@@ -143,6 +145,8 @@ int main(int argc, char** argv) {
   bool no_plots = false;
   std::string pose_term = "expected";
   int window = 1;
+  std::string of_kind = "paper";
+  int ml_every = 10;
   paper->add_option("--drive", drive, "sync or diff")->check(CLI::IsMember({"sync", "diff"}));
   paper->add_option("--runs", runs, "Monte Carlo runs per start (> 0)")
       ->check(CLI::PositiveNumber);
@@ -153,6 +157,11 @@ int main(int argc, char** argv) {
   paper->add_option("--pose-term", pose_term,
                     "OF pose-error term: expected (default) or literal (the paper read literally)")
       ->check(CLI::IsMember({"expected", "literal"}));
+  paper->add_option("--of", of_kind,
+                    "non-systematic estimator: paper (the Observable Filter) or ml (recursive maximum "
+                    "likelihood of K from the AKF's innovations; docs/nonsystematic.md)")
+      ->check(CLI::IsMember({"paper", "ml"}));
+  paper->add_option("--ml-every", ml_every, "ml: cycles between K steps (1..100)")->check(CLI::Range(1, 100));
   paper->add_flag("--no-plots", no_plots, "skip the PNG figures");
 
   auto* diag = app.add_subcommand("diagnose", "does the model explain the measurements; which effect is missing");
@@ -215,7 +224,7 @@ int main(int argc, char** argv) {
   if (const int rc = commands.runParsed(); rc >= 0) return rc;
 
   if (paper->parsed()) {
-    return runPaper(drive, runs, out, seed, threads, !no_plots, pose_term, window);
+    return runPaper(drive, runs, out, seed, threads, !no_plots, pose_term, window, of_kind, ml_every);
   }
   if (replay->parsed()) {
     Odolog log;

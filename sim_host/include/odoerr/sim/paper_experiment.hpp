@@ -21,6 +21,8 @@ struct PaperOptions {
   int record_every = 10;       ///< cycles between CSV rows (10 = every 10 cm)
   SimConfig sim{};
   FilterSetup setup{};
+  OfKind of = OfKind::kPaper;  ///< the non-systematic estimator (--of paper|ml)
+  KMlConfig<double> ml{};      ///< its settings when ml
   /// Called from the calling thread as runs complete (done, total).
   std::function<void(int, int)> progress;
 };
@@ -42,6 +44,7 @@ struct CaseResult {
 
 struct PaperResult {
   DriveKind drive = DriveKind::kSync;
+  OfKind of = OfKind::kPaper;
   int runs = 0;
   double wall_time_s = 0;
   std::vector<CaseResult> cases;  ///< small, large

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "odoerr/estimator.hpp"
+#include "odoerr/k_ml.hpp"
 #include "odoerr/fw/paper_setup.hpp"
 #include "odoerr/sim/paper_sim.hpp"
 
@@ -17,6 +18,74 @@ namespace odoerr::sim {
 enum class NonSysStart { kSmall, kLarge };
 
 inline const char* toString(NonSysStart s) { return s == NonSysStart::kSmall ? "small" : "large"; }
+
+/// The non-systematic estimator: the paper's Observable Filter, or the recursive maximum
+/// likelihood of K from the AKF's innovations (core/include/odoerr/k_ml.hpp).
+enum class OfKind { kPaper, kMl };
+
+inline const char* toString(OfKind k) { return k == OfKind::kPaper ? "paper" : "ml"; }
+
+/// The AKF driven by KMaxLikelihood instead of the OF: the same AKF, map and laser as `est`
+/// (copied), the same cycle (predict with the current K, fuse the scan), with the
+/// likelihood's sensitivities carried beside it. Host side: each fused beam's measurement
+/// row is recomputed by a second ray cast at the state before the beam (the core's cycle
+/// does not hand it out).
+template <typename Est>
+class MlDriver {
+ public:
+  using AkfT = typename Est::AkfT;
+  using Model = typename Est::Model;
+  using S = typename Model::Scalar;
+  using MlT = KMaxLikelihood<Model>;
+  static constexpr int N = Model::kStates;
+
+  MlDriver(const Est& est, const KMlConfig<S>& cfg) : akf_(est.akf()), map_(est.map()), laser_(est.laser()), ml_(cfg) {
+    ml_.init(est.of().estimate());
+  }
+
+  void cycle(const typename Model::Input& u, const S* ranges) {
+    ml_.predict(akf_.model(), akf_.state(), u);
+    if (akf_.predict(u, ml_.estimate()) != Status::kOk) return;
+    if (ranges != nullptr) {
+      typename AkfT::StateMat p_pre = akf_.covariance();
+      typename AkfT::StateVec x_pre = akf_.state();
+      auto observe = [&](const typename AkfT::BeamRecord& rec) {
+        if (rec.status != Status::kOk) return;
+        Eigen::Matrix<S, 1, 3> h3;
+        S range = S(0);
+        typename AkfT::StateVec h = AkfT::StateVec::Zero();
+        if (AkfT::expectedRange(map_, laser_, x_pre[0], x_pre[1], std::cos(x_pre[2]), std::sin(x_pre[2]), rec.beam,
+                                S(0), &range, &h3) == Status::kOk) {
+          h.template head<3>() = h3.transpose();
+          const S nu = rec.measured - rec.predicted;
+          ml_.beam(h, p_pre, nu, rec.variance);
+          loglik_ += S(-0.5) * (std::log(rec.variance) + nu * nu / rec.variance);
+        }
+        const auto& p = akf_.covariance();  // upper triangle current within a scan
+        for (int j = 0; j < N; ++j) {
+          for (int k = j; k < N; ++k) p_pre(j, k) = p_pre(k, j) = p(j, k);
+        }
+        x_pre = akf_.state();
+      };
+      (void)akf_.updateScan(map_, laser_, ranges, observe);
+    }
+    ml_.endCycle();
+  }
+
+  const AkfT& akf() const { return akf_; }
+  const MlT& ml() const { return ml_; }
+  /// Restarts K (and its recursion) at k; for tests.
+  void restartK(const typename MlT::KVec& k) { ml_.init(k); }
+  /// Sum of -1/2 (log s + nu^2/s) over the fused beams so far (the innovation likelihood).
+  S logLikelihood() const { return loglik_; }
+
+ private:
+  AkfT akf_;
+  typename Est::MapT map_;
+  typename Est::LaserT laser_;
+  MlT ml_;
+  S loglik_ = S(0);
+};
 
 /// The filter's priors and options, shared with the firmware (fw/paper_setup.hpp).
 using FilterSetup = fw::FilterSetup;
@@ -65,22 +134,26 @@ typename fw::PaperTypes<S, DriveT>::EstimatorT makeEstimator(const PaperSim<Driv
 /// Runs one closed-loop drive, recording every `record_every` cycles (and at the end).
 template <typename S, template <typename> class DriveT>
 Trace runDrive(const SimConfig& cfg, std::uint64_t seed, NonSysStart start, const FilterSetup& setup,
-               int record_every, const StepSink<DriveT<double>>& sink = nullptr) {
+               int record_every, const StepSink<DriveT<double>>& sink = nullptr,
+               OfKind of_kind = OfKind::kPaper, const KMlConfig<S>& ml_cfg = {}) {
   using SimDrive = DriveT<double>;
   using L = TraceLayout<SimDrive>;
   PaperSim<SimDrive> sim(cfg, seed);
   auto est = makeEstimator<S, DriveT>(sim, setup, start);
   using Est = decltype(est);
+  const bool use_ml = of_kind == OfKind::kMl;
+  MlDriver<Est> ml(est, ml_cfg);
+  auto akfNow = [&]() -> const typename Est::AkfT& { return use_ml ? ml.akf() : est.akf(); };
   constexpr int kP = SimDrive::kParams;
   constexpr int kM = SimDrive::kNonSys;
 
   Trace tr;
   tr.width = L::kSize;
   auto record = [&](double dist) {
-    const auto& x = est.akf().state();
-    const auto& p = est.akf().covariance();
-    const auto& k = est.of().estimate();
-    const auto& pk = est.of().covariance();
+    const auto& x = akfNow().state();
+    const auto& p = akfNow().covariance();
+    const auto k = use_ml ? ml.ml().estimate() : est.of().estimate();
+    const auto pk = use_ml ? ml.ml().covariance() : est.of().covariance();
     tr.distance_m.push_back(dist);
     const std::size_t base = tr.values.size();
     tr.values.resize(base + L::kSize);
@@ -102,7 +175,7 @@ Trace runDrive(const SimConfig& cfg, std::uint64_t seed, NonSysStart start, cons
   record(0.0);
   std::array<S, kMaxBeams> ranges{};
   for (int k = 1; k <= cfg.steps; ++k) {
-    const auto& x = est.akf().state();
+    const auto& x = akfNow().state();
     const Pose<double> pe{double(x[0]), double(x[1]), double(x[2])};
     typename SimDrive::ParamVec pp;
     for (int i = 0; i < kP; ++i) pp[i] = double(x[Est::Model::kDriveOffset + i]);
@@ -110,18 +183,28 @@ Trace runDrive(const SimConfig& cfg, std::uint64_t seed, NonSysStart start, cons
     if (sink) sink(st);
     const auto u = convertInput<typename Est::Input>(st.input);
     for (int i = 0; i < cfg.laser.beams; ++i) ranges[i] = S(st.ranges[i]);
-    (void)est.cycle(u, ranges.data());
+    if (use_ml) {
+      ml.cycle(u, ranges.data());
+    } else {
+      (void)est.cycle(u, ranges.data());
+    }
     if (k % record_every == 0 || k == cfg.steps) record(k * cfg.step_m);
   }
-  const auto& c = est.akf().counters();
+  const auto& c = akfNow().counters();
   tr.beams_used = c.beams_used;
   tr.gated = c.gated;
   tr.grazing = c.grazing;
   tr.no_return = c.no_return + c.no_map_hit;
   tr.rejected = c.bad_innovation + c.bad_covariance + c.bad_inputs + c.bad_predictions;
-  tr.of_updates = est.of().counters().updates;
-  tr.of_rejected = est.of().counters().rejected;
-  tr.of_clamped = est.of().counters().clamped;
+  if (use_ml) {
+    tr.of_updates = ml.ml().counters().steps;
+    tr.of_rejected = ml.ml().counters().skipped;
+    tr.of_clamped = ml.ml().counters().clipped;
+  } else {
+    tr.of_updates = est.of().counters().updates;
+    tr.of_rejected = est.of().counters().rejected;
+    tr.of_clamped = est.of().counters().clamped;
+  }
   return tr;
 }
 

@@ -1,0 +1,182 @@
+// odoerr core: a recursive maximum-likelihood estimator of the non-systematic parameters K
+// (a candidate beside the paper's Observable Filter; docs/nonsystematic.md "Candidates").
+//
+// The AKF's innovations give the likelihood of K (prediction-error decomposition): each used
+// scalar beam contributes -1/2 (log s + nu^2/s). Its score and Fisher information need the
+// filter's sensitivities to K, propagated recursively beside the AKF (the bound's machinery
+// at the estimate instead of at the truth):
+//   prediction:  dP_i <- F dP_i F^T + G dQ/dK_i G^T,   xi_i <- F xi_i      (xi_i = d xhat / dK_i)
+//   beam:        ds_i = h^T dP_i h,  a_i = h^T xi_i,   k = P h / s,  dk_i = (dP_i h - k ds_i) / s
+//                score_i += -1/2 ds_i/s (1 - nu^2/s) + nu a_i / s
+//                info_ij += 1/2 ds_i ds_j / s^2 + a_i a_j / s
+//                xi_i <- xi_i - k a_i + dk_i nu,   dP_i <- (I - k h^T) dP_i (I - k h^T)^T
+// Every `every` cycles a Gauss-Newton (natural-gradient) step in theta = log K:
+//   J <- lambda J + diag(K) I_block diag(K),   theta += clamp(J^-1 diag(K) g_block)
+// with lambda rising to 1 (Ljung's forgetting schedule), so the recursion tends to the
+// maximum of the whole record's likelihood. Fixed-size, allocation-free, Eigen only.
+#pragma once
+
+#include <cmath>
+#include <cstdint>
+
+#include <Eigen/Cholesky>
+
+#include "odoerr/akf.hpp"
+
+namespace odoerr {
+
+template <typename S>
+struct KMlConfig {
+  int every = 10;                 ///< cycles between K steps
+  S max_log_step = S(0.5);        ///< |delta log K| per step at most
+  S lambda0 = S(0.9);             ///< initial forgetting factor
+  S lambda_rate = S(0.98);        ///< lambda <- rate lambda + (1 - rate)  (towards 1)
+};
+
+struct KMlCounters {
+  std::uint32_t steps = 0;
+  std::uint32_t clipped = 0;   ///< steps limited by max_log_step
+  std::uint32_t skipped = 0;   ///< steps refused (information not positive definite)
+  std::uint32_t beams = 0;
+};
+
+template <typename ModelT>
+class KMaxLikelihood {
+ public:
+  using Model = ModelT;
+  using S = typename Model::Scalar;
+  using Drive = typename Model::Drive;
+  using Input = typename Model::Input;
+  static constexpr int N = Model::kStates;
+  static constexpr int M = Drive::kNonSys;
+  using KVec = Eigen::Matrix<S, M, 1>;
+  using KMat = Eigen::Matrix<S, M, M>;
+  using StateVec = Eigen::Matrix<S, N, 1>;
+  using StateMat = Eigen::Matrix<S, N, N>;
+
+  KMaxLikelihood() = default;
+  explicit KMaxLikelihood(const KMlConfig<S>& cfg) : cfg_(cfg) {
+    if (cfg_.every < 1) cfg_.every = 1;
+  }
+
+  void init(const KVec& k0) {
+    k_ = k0;
+    for (int i = 0; i < M; ++i) {
+      dp_[i].setZero();
+      xi_[i].setZero();
+    }
+    g_.setZero();
+    info_.setZero();
+    j_.setZero();
+    lambda_ = cfg_.lambda0;
+    cycles_ = 0;
+  }
+
+  const KVec& estimate() const { return k_; }
+  /// Covariance of K from the accumulated information (J^-1 in log K, mapped to K).
+  KMat covariance() const {
+    KMat c = KMat::Zero();
+    Eigen::LLT<KMat> llt(j_);
+    if (llt.info() != Eigen::Success) {
+      for (int i = 0; i < M; ++i) c(i, i) = k_[i] * k_[i];  // no information: 100 %
+      return c;
+    }
+    const KMat ci = llt.solve(KMat::Identity());
+    return k_.asDiagonal() * ci * k_.asDiagonal();
+  }
+  const KMlCounters& counters() const { return counters_; }
+  const KVec& blockScore() const { return g_; }
+  const KMat& blockInformation() const { return info_; }
+
+  /// Before the AKF's prediction with input u from state x (the AKF's state before it).
+  void predict(const Model& model, const StateVec& x, const Input& u) {
+    Eigen::Matrix<S, 3, N> f_pose;
+    Eigen::Matrix<S, 3, Model::kNoise> g_pose;
+    (void)Akf<Model>::transition(model, x, u, &f_pose, &g_pose);
+    for (int i = 0; i < M; ++i) {
+      KVec e = KVec::Zero();
+      e[i] = S(1);
+      const auto dq = model.drive.noiseVariance(u, e);  // Q is linear in K
+      // F = [f_pose; 0 I]: only the pose rows/cols change.
+      const Eigen::Matrix<S, 3, N> fp = f_pose * dp_[i];
+      dp_[i].template topRows<3>() = fp;
+      dp_[i].template leftCols<3>() = fp.transpose();
+      dp_[i].template topLeftCorner<3, 3>() =
+          fp * f_pose.transpose() + g_pose * dq.asDiagonal() * g_pose.transpose();
+      const Eigen::Matrix<S, 3, 1> xp = f_pose * xi_[i];
+      xi_[i].template head<3>() = xp;
+    }
+  }
+
+  /// One fused beam: h its measurement row, p_prior the AKF's covariance before it, nu the
+  /// innovation, s its variance.
+  void beam(const StateVec& h, const StateMat& p_prior, S nu, S s) {
+    const StateVec ph = p_prior * h;
+    const StateVec k = ph / s;
+    S ds[M];
+    S a[M];
+    StateVec dph[M];
+    for (int i = 0; i < M; ++i) {
+      dph[i] = dp_[i] * h;
+      ds[i] = h.dot(dph[i]);
+      a[i] = h.dot(xi_[i]);
+    }
+    const S nis = nu * nu / s;
+    for (int i = 0; i < M; ++i) {
+      g_[i] += S(-0.5) * ds[i] / s * (S(1) - nis) + nu * a[i] / s;
+      for (int j = 0; j < M; ++j) info_(i, j) += S(0.5) * ds[i] * ds[j] / (s * s) + a[i] * a[j] / s;
+    }
+    for (int i = 0; i < M; ++i) {
+      const StateVec dk = (dph[i] - k * ds[i]) / s;
+      xi_[i] += -k * a[i] + dk * nu;
+      // (I - k h^T) dP (I - k h^T)^T = dP - k dph^T - dph k^T + k ds k^T
+      dp_[i] += -k * dph[i].transpose() - dph[i] * k.transpose() + ds[i] * (k * k.transpose());
+    }
+    ++counters_.beams;
+  }
+
+  /// At the end of a cycle: a K step every `every` cycles. Returns true when K moved.
+  bool endCycle() {
+    if (++cycles_ < cfg_.every) return false;
+    cycles_ = 0;
+    const KMat dk = k_.asDiagonal();
+    const KMat info_t = dk * info_ * dk;
+    const KVec g_t = dk * g_;
+    j_ = lambda_ * j_ + info_t;
+    lambda_ = cfg_.lambda_rate * lambda_ + (S(1) - cfg_.lambda_rate);
+    g_.setZero();
+    info_.setZero();
+    Eigen::LLT<KMat> llt(j_);
+    if (llt.info() != Eigen::Success || !g_t.allFinite()) {
+      ++counters_.skipped;
+      return false;
+    }
+    KVec step = llt.solve(g_t);
+    if (!step.allFinite()) {
+      ++counters_.skipped;
+      return false;
+    }
+    const S big = step.cwiseAbs().maxCoeff();
+    if (big > cfg_.max_log_step) {
+      step *= cfg_.max_log_step / big;
+      ++counters_.clipped;
+    }
+    for (int i = 0; i < M; ++i) k_[i] *= std::exp(step[i]);
+    ++counters_.steps;
+    return true;
+  }
+
+ private:
+  KMlConfig<S> cfg_{};
+  KVec k_ = KVec::Ones();
+  StateMat dp_[M];
+  StateVec xi_[M];
+  KVec g_ = KVec::Zero();
+  KMat info_ = KMat::Zero();
+  KMat j_ = KMat::Zero();
+  S lambda_ = S(0.9);
+  int cycles_ = 0;
+  KMlCounters counters_{};
+};
+
+}  // namespace odoerr
