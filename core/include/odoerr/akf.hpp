@@ -658,13 +658,12 @@ class Akf {
     int act[kSparse ? N : 1];
     int n_act = 0;
     if constexpr (kSparse) {
+      n_act = statesWithVariance(act);
       int hcol[N];
       int n_h = 0;
-      for (int j = 0; j < N; ++j) {
-        pht[j] = S(0);
-        if (p_(j, j) == S(0)) continue;
-        act[n_act++] = j;
-        if (j < kHCols && hf[j] != S(0)) hcol[n_h++] = j;
+      for (int j = 0; j < N; ++j) pht[j] = S(0);
+      for (int a = 0; a < n_act; ++a) {
+        if (act[a] < kHCols && hf[act[a]] != S(0)) hcol[n_h++] = act[a];
       }
       for (int a = 0; a < n_act; ++a) {
         const int j = act[a];
@@ -744,16 +743,23 @@ class Akf {
     return Status::kOk;
   }
 
+  /// kSparse: the indices of the states with variance (the others are held: zero rows and
+  /// columns of P), in increasing order; returns how many.
+  int statesWithVariance(int* act) const {
+    int n = 0;
+    for (int j = 0; j < N; ++j) {
+      if (p_(j, j) != S(0)) act[n++] = j;
+    }
+    return n;
+  }
+
   /// predict()'s covariance step for kSparse models: F P F^T over the states with variance
   /// only (held states have zero rows and columns), written into P in place if healthy.
   template <typename GPose, typename QVec, typename DInc>
   bool predictCovarianceSparse(const Eigen::Matrix<S, 3, N>& f_pose, const GPose& g_pose, const QVec& q,
                                const Increment<S>& inc, const DInc& d_inc) {
     int act[N];
-    int n_act = 0;
-    for (int j = 0; j < N; ++j) {
-      if (p_(j, j) != S(0)) act[n_act++] = j;
-    }
+    const int n_act = statesWithVariance(act);
     Eigen::Matrix<S, 3, N> fp = Eigen::Matrix<S, 3, N>::Zero();
     for (int b = 0; b < n_act; ++b) {
       const int j = act[b];
