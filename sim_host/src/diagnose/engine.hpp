@@ -1,6 +1,6 @@
-// diagnose, the filter runs over a log: the log as filter events (one per cm of encoder
-// travel, one per scan and pose fix at its own stamp), the held-out blocks and folds, and
-// Engine::run, which runs the estimator with the whole effect catalogue composed in over
+// diagnose, the filter runs over a log: Engine prepares a log (its filter events,
+// events.hpp; its held-out blocks and folds, heldout_blocks.hpp; the model and its effects)
+// and Engine::run runs the estimator with the whole effect catalogue composed in over
 // those events in one of three modes (full, fit with a fold held out, evaluate a fold's
 // held-out blocks from anchors). Every other part of diagnose (ranking, held-out
 // comparison, excitation, discovery) is built from such runs.
@@ -10,7 +10,6 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
-#include <functional>
 #include <limits>
 #include <optional>
 #include <string>
@@ -20,6 +19,8 @@
 
 #include <Eigen/Dense>
 
+#include "events.hpp"
+#include "heldout_blocks.hpp"
 #include "odoerr/effects/catalogue.hpp"
 #include "odoerr/effects/feature_effects.hpp"
 #include "odoerr/estimator.hpp"
@@ -27,96 +28,10 @@
 #include "odoerr/sim/diagnose.hpp"
 #include "odoerr/sim/host_map.hpp"
 #include "odoerr/sim/stats.hpp"
+#include "parallel.hpp"
+#include "run_types.hpp"
 
 namespace odoerr::sim::diag {
-
-using effects::Catalogue;
-
-/// The catalogue and the feature effects: the model of `--with feature:...` and `--with auto`.
-using FeatureMotionE = effects::FeatureMotion<4>;
-using FeatureRangeE = effects::FeatureRange<4>;
-using Featured = typename effects::TupleCat<Catalogue, std::tuple<FeatureMotionE, FeatureRangeE>>::type;
-
-/// The feature effects' slots (a discovery put into the model): at most 4 of each.
-struct FeatureSlots {
-  struct Motion {
-    effects::MotionFeature f;
-    effects::MotionTarget t;
-    double prior, ref;
-  };
-  struct Beam {
-    effects::BeamFeature f;
-    double prior, ref;
-  };
-  std::vector<Motion> motion;
-  std::vector<Beam> beam;
-  static constexpr std::size_t kMax = 4;
-  bool empty() const { return motion.empty() && beam.empty(); }
-};
-
-template <typename D, typename Tuple>
-struct ModelOf;
-template <typename D, typename... E>
-struct ModelOf<D, std::tuple<E...>> {
-  using type = Model<D, E...>;
-};
-
-constexpr double kCap = 25.0;     // NIS cap of one innovation in the likelihood (= the gate)
-constexpr double kHeld = 0.0;     // prior sigma of a parameter held at a value (exactly constant)
-/// The coarse grid of a noise effect's profile, in units of its reference size.
-constexpr double kNoiseGrid[4] = {0.0, 0.5, 2.0, 8.0};
-
-struct EffectInfo {
-  std::string name, description;
-  EffectKind kind;
-  int offset, n;
-  std::vector<double> prior, ref;
-  std::vector<std::string> pnames;
-};
-
-/// One predicted (not fused) held-out measurement in a run: its time and the predicting
-/// copy's pose error against truth (NaN without truth).
-struct HeldEvent {
-  double t, pose_err;
-};
-
-/// The same after the comparison: with the NIS and negative log-likelihood per degree of
-/// freedom over the beams that both runs predicted.
-struct HeldScan {
-  double t, nis, nll, pose_err;
-};
-
-/// One beam (or pose fix) of a predicted held-out measurement. Before and after are
-/// compared on the beams both predicted (matched by key), so that a model cannot improve
-/// its mean by leaving hard beams unpredicted.
-struct HeldBeam {
-  long long key;  ///< scan * 64 + beam; a pose fix: -(index + 1)
-  int scan;       ///< its HeldEvent in the run
-  double nis, nll, nu2;
-  bool ok;        ///< predicted (a variance and a wall)
-  bool inside;    ///< inside the gate (its innovation counts in the innovation RMS)
-};
-
-/// The filter's pose after fusing a measurement (a scan or a pose fix), for the residuals
-/// of discovery: the event it belongs to, the posterior pose, speed and turn rate.
-struct PostPose {
-  int event;
-  double t, x, y, th, v, w;
-};
-
-/// A beam predicted at the posterior of its scan (the filter's residual after the fusion).
-struct PostBeam {
-  int post;   ///< its PostPose
-  int beam;
-  double nu;  ///< measured - predicted at the posterior (measurement effects included)
-};
-
-struct Event {
-  double t, dt, a, b;
-  int scan = -1, pose = -1;
-};
-
-enum class Mode { kFull, kFit, kEval };
 
 template <template <typename> class DriveT, typename Effects = Catalogue>
 class Engine {
@@ -222,18 +137,10 @@ class Engine {
       return false;
     }
     buildEffects();
-    buildEvents();
+    events_ = buildEvents<Drive>(log_, ticks_a_, ticks_b_, opt_.cycle_m, lc_.beams > 0);
     t0_ = events_.front().t;
     t1_ = events_.back().t;
-    // Held-out blocks: after the warm-up, the drive cut into short blocks (the fit
-    // dead-reckons through a block and its gaps, so a block must be short enough to
-    // relocalise after); fold f holds out blocks f, f + folds, ...
-    blocks_start_ = t0_ + opt_.warmup_s + opt_.gap_s;
-    const double span = t1_ - blocks_start_;
-    const int nb = opt_.block_s > 0 && span > 0 ? static_cast<int>(span / opt_.block_s) : 0;
-    for (int b = 0; b < nb; ++b)
-      blocks_.push_back({blocks_start_ + b * opt_.block_s, blocks_start_ + (b + 1) * opt_.block_s});
-    folds_ = std::max(0, std::min(opt_.folds, nb));
+    heldout_ = HeldoutBlocks(t0_, t1_, opt_.warmup_s, opt_.gap_s, opt_.block_s, opt_.folds);
     return true;
   }
 
@@ -358,12 +265,12 @@ class Engine {
       const typename Drive::Input u{ev.a, ev.b};
       dist += Drive::pathLength(u);
       if (est.predictStep(u, ev.dt) != Status::kOk) continue;
-      const bool held = spec.mode != Mode::kFull && inHeldout(ev.t, spec.fold);
+      const bool held = spec.mode != Mode::kFull && heldout_.inHeldout(ev.t, spec.fold);
       bool use = true;      // fuse this event's measurement
       bool score = spec.mode == Mode::kFull;
       bool evaluate = false;  // held-out evaluation (predict, do not fuse)
       if (spec.mode == Mode::kFit) {
-        use = !held && !nearHeldout(ev.t, spec.fold);
+        use = !held && !heldout_.nearHeldout(ev.t, spec.fold);
         score = use;
       }
       // Evaluation: the main filter fuses everything; at an anchor (a held-out block's first
@@ -575,30 +482,14 @@ class Engine {
   }
   std::size_t scoredSize() const { return log_.scans.size() * static_cast<std::size_t>(std::max(0, lc_.beams)); }
 
-  /// The block that holds time t (-1: none).
-  int blockAt(double t) const {
-    if (blocks_.empty() || t < blocks_start_) return -1;
-    const int b = static_cast<int>((t - blocks_start_) / opt_.block_s);
-    return b < static_cast<int>(blocks_.size()) ? b : -1;
-  }
-  bool heldBlock(int b, int fold) const { return b >= 0 && folds_ > 0 && b % folds_ == fold; }
-  bool inHeldout(double t, int fold) const { return heldBlock(blockAt(t), fold); }
-  /// Within gap_s of a block held out in this fold (the fit does not use it either).
-  bool nearHeldout(double t, int fold) const {
-    if (blocks_.empty()) return false;
-    const double lo = std::floor((t - opt_.gap_s - blocks_start_) / opt_.block_s);
-    const double hi = std::floor((t + opt_.gap_s - blocks_start_) / opt_.block_s);
-    const int last = static_cast<int>(blocks_.size()) - 1;
-    for (int b = static_cast<int>(std::max(0.0, lo)); b <= std::min(double(last), hi); ++b)
-      if (heldBlock(b, fold)) return true;
-    return false;
-  }
-  const std::vector<std::pair<double, double>>& blocks() const { return blocks_; }
+  /// The held-out block that holds time t (-1: none).
+  int blockAt(double t) const { return heldout_.blockAt(t); }
+  const std::vector<std::pair<double, double>>& blocks() const { return heldout_.blocks(); }
   const std::vector<Event>& events() const { return events_; }
   const typename Est::MapT& map() const { return map_; }
   const typename Est::LaserT& laser() const { return laser_; }
   const Odolog& log() const { return log_; }
-  int folds() const { return folds_; }
+  int folds() const { return heldout_.folds(); }
   double duration() const { return t1_ - t0_; }
   const Drive& drive() const { return drive_; }
 
@@ -624,55 +515,6 @@ class Engine {
   }
   void buildEffects() { buildEffectsImpl(makeModel(), std::make_index_sequence<std::tuple_size_v<Effects>>{}); }
 
-  /// The log as filter events: one per cm of encoder travel, one per scan and pose fix at
-  /// its own stamp (encoder counts interpolated to it), as `odoerr replay` does.
-  void buildEvents() {
-    const auto& e = log_.enc;
-    EncCursor enc(e);
-    auto countsAt = [&](double t, double* a, double* b) {
-      const CountsAt c = enc.at(t);
-      *a = c.a;
-      *b = c.b;
-    };
-    double fa = double(e.front().a), fb = double(e.front().b), ft = e.front().t;
-    auto push = [&](double t, double a, double b, int scan, int pose) {
-      Event ev{t, t - ft, (a - fa) / ticks_a_, (b - fb) / ticks_b_, scan, pose};
-      events_.push_back(ev);
-      fa = a;
-      fb = b;
-      ft = t;
-    };
-    std::size_t ie = 0, is = 0, ip = 0;
-    const double inf = std::numeric_limits<double>::infinity();
-    while (ie < e.size() || is < log_.scans.size() || ip < log_.poses.size()) {
-      const double te = ie < e.size() ? e[ie].t : inf;
-      const double ts = is < log_.scans.size() ? log_.scans[is].t : inf;
-      const double tp = ip < log_.poses.size() ? log_.poses[ip].t : inf;
-      if (te <= ts && te <= tp) {
-        const OdologEnc& r = e[ie++];
-        const typename Drive::Input u{(double(r.a) - fa) / ticks_a_, (double(r.b) - fb) / ticks_b_};
-        if (Drive::pathLength(u) >= opt_.cycle_m) push(r.t, double(r.a), double(r.b), -1, -1);
-      } else if (ts <= tp) {
-        const double t = log_.scans[is].t;
-        if (t >= ft && lc_.beams > 0) {
-          double a, b;
-          countsAt(t, &a, &b);
-          push(t, a, b, static_cast<int>(is), -1);
-        }
-        ++is;
-      } else {
-        const double t = log_.poses[ip].t;
-        if (t >= ft) {
-          double a, b;
-          countsAt(t, &a, &b);
-          push(t, a, b, -1, static_cast<int>(ip));
-        }
-        ++ip;
-      }
-    }
-    if (events_.empty()) events_.push_back({ft, 0, 0, 0, -1, -1});
-  }
-
   const Odolog& log_;
   DiagnoseOptions opt_;
   FeatureSlots slots_;
@@ -685,13 +527,8 @@ class Engine {
   std::vector<EffectInfo> effects_;
   std::vector<Event> events_;
   double t0_ = 0, t1_ = 0;
-  std::vector<std::pair<double, double>> blocks_;  ///< held-out blocks; block b in fold b % folds_
-  double blocks_start_ = 0;
-  int folds_ = 0;
+  HeldoutBlocks heldout_;
 };
-
-/// Runs tasks on `threads` workers.
-void runParallel(std::vector<std::function<void()>>& tasks, int threads);
 
 extern template class Engine<SyncDrive>;
 extern template class Engine<DiffDrive>;
