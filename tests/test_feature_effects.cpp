@@ -1,0 +1,308 @@
+// The feature effects (odoerr/effects/feature_effects.hpp): a discovery's finding enters
+// the model as a configured slot, with exact Jacobians, configured priors, and is
+// estimated by the filter. The catalogue's own effects: test_effects.cpp.
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <random>
+
+#include "effects_support.hpp"
+#include "odoerr/akf.hpp"
+#include "odoerr/effects/catalogue.hpp"
+#include "odoerr/effects/feature_effects.hpp"
+#include "odoerr/estimator.hpp"
+
+namespace odoerr {
+namespace {
+
+using namespace effects_test;
+
+using MF = FeatureMotion<4>;
+using MT = MotionTarget;
+using FM = MotionFeature;
+
+MF featureMotion(std::initializer_list<std::pair<FM, MT>> slots) {
+  MF e;
+  e.wheelbase = 0.5;
+  e.xc = 5;
+  e.yc = 5;
+  int i = 0;
+  for (const auto& [f, t] : slots) EXPECT_TRUE(e.configure(i++, f, t, 0.1, 0.01));
+  return e;
+}
+
+TEST(FeatureEffects, MotionJacobiansMatchFiniteDifferences) {
+  // every target and every feature, each in some slot, forwards and reversing, turning
+  // both ways (both wheels forwards, one wheel backwards)
+  const MF configs[] = {
+      featureMotion({{FM::kDsRSpeed, MT::kWheelR}, {FM::kAbsDs, MT::kWorldY}, {FM::kVW, MT::kCross}, {FM::kAbsDth, MT::kHeading}}),
+      featureMotion({{FM::kDsLSpeed, MT::kWheelL}, {FM::kCosHeadingDs, MT::kWorldX}, {FM::kXDs, MT::kAlong}, {FM::kW2, MT::kHeading}}),
+      featureMotion({{FM::kV2, MT::kAlong}, {FM::kSDs, MT::kCross}, {FM::kDth, MT::kWorldX}, {FM::kDsL, MT::kWorldY}}),
+      featureMotion({{FM::kDs, MT::kWheelR}, {FM::kSinHeadingDs, MT::kWheelL}, {FM::kYDs, MT::kAlong}, {FM::kDt, MT::kCross}}),
+      featureMotion({{FM::kDsR, MT::kHeading}, {FM::kDsRSpeed, MT::kWorldX}, {FM::kDsLSpeed, MT::kCross}, {FM::kVW, MT::kWheelL}}),
+  };
+  for (const MF& e : configs) {
+    for (const Increment<D>& in : {Increment<D>{0.012, 0.004, 0.0003}, Increment<D>{-0.012, 0.03, 0.0003},
+                                   Increment<D>{0.004, -0.05, -0.0002}}) {
+      checkMotionJacobians(e, {0.03, -0.02, 0.05, 0.04}, in);
+    }
+  }
+}
+
+TEST(FeatureEffects, MotionFollowsTheLibraryAndAnEmptySlotDoesNothing) {
+  const MotionContext<D> ctx = testContext();  // dt 0.02, heading 0.7
+  const Increment<D> in{0.012, 0.02, 0.0003};
+  Eigen::Matrix<D, 3, 3> di;
+  Eigen::Matrix<D, 3, 4> dp;
+  // nothing configured: identity, zero columns
+  const D c[4] = {0.03, -0.01, 0.2, 0.4};
+  const Increment<D> same = MF{}.apply(in, c, ctx, di, dp);
+  EXPECT_EQ(same.rho, in.rho);
+  EXPECT_EQ(same.theta, in.theta);
+  EXPECT_EQ(same.side, in.side);
+  EXPECT_TRUE(di.isIdentity(0));
+  EXPECT_TRUE(dp.isZero(0));
+  // wheel_R += 0.03 ds_R_speed (slot 0) and world_y += -0.01 abs_ds (slot 1), by hand
+  const MF e = featureMotion({{FM::kDsRSpeed, MT::kWheelR}, {FM::kAbsDs, MT::kWorldY}});
+  const D r = 0.012 + 0.02 * 0.25, a = 0.03 * r * r / 0.02, b = -0.01 * 0.012;
+  const Increment<D> out = e.apply(in, c, ctx, di, dp);
+  EXPECT_NEAR(out.rho, 0.012 + a / 2 + b * std::sin(0.7), 1e-15);
+  EXPECT_NEAR(out.theta, 0.02 + a / 0.5, 1e-15);
+  EXPECT_NEAR(out.side, 0.0003 + b * std::cos(0.7), 1e-15);
+  EXPECT_TRUE(dp.col(2).isZero(0));  // slots 2, 3 unconfigured
+  EXPECT_TRUE(dp.col(3).isZero(0));
+  EXPECT_NEAR(e.feature(0, in, ctx).f, r * r / 0.02, 1e-15);
+  // configure refuses what it cannot hold, and changes nothing then
+  MF g;
+  EXPECT_FALSE(g.configure(4, FM::kDs, MT::kAlong, 0.1, 0.01));
+  EXPECT_FALSE(g.configure(0, FM::kCount, MT::kAlong, 0.1, 0.01));
+  EXPECT_FALSE(g.configure(0, FM::kDs, MT::kCount, 0.1, 0.01));
+  EXPECT_FALSE(g.configure(0, FM::kDs, MT::kAlong, -0.1, 0.01));
+  EXPECT_FALSE(g.configure(0, FM::kDs, MT::kAlong, std::nan(""), 0.01));
+  EXPECT_EQ(g.slots[0].feature, FM::kNone);
+}
+
+TEST(FeatureEffects, PriorsComeFromTheConfiguration) {
+  MF e;
+  ASSERT_TRUE(e.configure(1, FM::kDsRSpeed, MT::kWheelR, 0.2, 0.02));
+  EXPECT_EQ(priorSigma(e, 1), 0.2);
+  EXPECT_EQ(referenceSize(e, 1), 0.02);
+  EXPECT_EQ(priorSigma(e, 0), 0.0);  // an unconfigured slot: held at 0 if composed
+  FeatureRange<2> fr;
+  ASSERT_TRUE(fr.configure(0, BeamFeature::kInvCosInc, 0.1, 0.01));
+  EXPECT_EQ(priorSigma(fr, 0), 0.1);
+  EXPECT_FALSE(fr.configure(2, BeamFeature::kOne, 0.1, 0.01));
+  // catalogue effects: the instance form gives the type's values
+  EXPECT_EQ(priorSigma(RangeBias{}, 0), priorSigma<RangeBias>(0));
+  EXPECT_EQ(referenceSize(WallOffset{}, 7), referenceSize<WallOffset>(7));
+  static_assert(HasConfiguredPrior<MF>::value && !HasConfiguredPrior<TurnSlip>::value);
+  EXPECT_STREQ(MF::kParamNames[3], "c3");
+  EXPECT_STREQ(MF::kName, "feature_motion");
+  EXPECT_STREQ(FeatureRange<2>::kName, "feature_range");
+}
+
+TEST(FeatureEffects, TheFilterGivesTheHeadingOnlyToModelsThatReadIt) {
+  static_assert(Model<DiffDrive<D>, MF>::kUsesHeading);
+  static_assert(!Model<DiffDrive<D>, TurnSlip, RegionScale, RangeBias>::kUsesHeading);
+  static_assert(!Model<DiffDrive<float>>::kUsesHeading);
+  using M = Model<DiffDrive<D>, MF>;
+  DiffDrive<D> drive;
+  drive.wheelbase = 0.5;
+  Akf<M> akf{M(drive)};
+  M::StateVec x = M::StateVec::Zero();
+  x[2] = 0.3;
+  M::setNominal(x);
+  akf.init(x, M::StateVec::Constant(1e-4).asDiagonal());
+  ASSERT_EQ(akf.predict({0.012, 0.01}, Eigen::Matrix<D, 1, 1>(1e-6), 0.02), Status::kOk);
+  EXPECT_DOUBLE_EQ(akf.motionContext().heading, 0.3);  // the cycle's start
+  EXPECT_NEAR(akf.motionContext().cos_heading, std::cos(0.3), 1e-12);
+  EXPECT_NEAR(akf.motionContext().sin_heading, std::sin(0.3), 1e-12);
+  using MR = Model<DiffDrive<D>, RegionScale>;
+  Akf<MR> other{MR(drive)};
+  MR::StateVec xr = MR::StateVec::Zero();
+  xr[2] = 0.3;
+  MR::setNominal(xr);
+  other.init(xr, MR::StateVec::Constant(1e-4).asDiagonal());
+  ASSERT_EQ(other.predict({0.012, 0.01}, Eigen::Matrix<D, 1, 1>(1e-6), 0.02), Status::kOk);
+  EXPECT_EQ(other.motionContext().heading, 0.0);  // not filled
+}
+
+// A drive in a 10 m room: a circle of radius 2.25 m around the centre at a speed varying
+// between 0.2 and 0.8 m/s, with a scan of 36 beams every 10 cycles (0.02 s each).
+struct FeatureDrive {
+  static constexpr D kDt = 0.02;
+  static DiffDrive<D>::Input input(int i) {
+    const D right = 0.004 + 0.012 * (0.5 + 0.5 * std::sin(2 * M_PI * i / 700.0));
+    return {right, 0.8 * right};
+  }
+};
+
+template <typename Est>
+void initFeatureEstimator(Est& est, const typename Est::Model::StateVec& sig, const D* x0_pose) {
+  using M = typename Est::Model;
+  typename M::StateVec x0 = M::StateVec::Zero();
+  x0[0] = x0_pose[0];
+  x0[1] = x0_pose[1];
+  x0[2] = x0_pose[2];
+  M::setNominal(x0);
+  typename Est::OfT::KVec k0 = Est::OfT::KVec::Constant(1e-6);
+  est.init(x0, sig.cwiseAbs2().asDiagonal(), k0, (k0 * 0.1).cwiseAbs2().asDiagonal());
+  est.freezeNonSystematic(true);
+}
+
+TEST(FeatureEffects, WheelSpeedErrorIsEstimatedFromADriveOfVaryingSpeed) {
+  // truth: wheel_R travel += 0.03 x ds_R_speed, applied with the same feature code
+  using M = Model<DiffDrive<D>, MF>;
+  using Est = Estimator<M>;
+  constexpr int kC = M::offsetOf<MF>();
+  typename Est::MapT map;
+  ASSERT_TRUE(map.add({0, 0, 10, 0}) && map.add({10, 0, 10, 10}) && map.add({10, 10, 0, 10}) && map.add({0, 10, 0, 0}));
+  typename Est::LaserT laser;
+  ASSERT_TRUE(laser.init(LaserConfig<D>{}));
+  DiffDrive<D> drive;
+  drive.wheelbase = 0.5;
+  MF eff;
+  eff.wheelbase = drive.wheelbase;
+  eff.xc = 5;
+  eff.yc = 5;
+  ASSERT_TRUE(eff.configure(0, FM::kDsRSpeed, MT::kWheelR, 0.1, 0.01));
+  M model(drive);
+  std::get<MF>(model.effects) = eff;
+  Est est(model, map, laser);
+  const D pose0[3] = {5, 2.75, 0};
+  M::StateVec sig = M::StateVec::Constant(1e-3);
+  for (int i = 0; i < 4; ++i) sig[kC + i] = priorSigma(eff, i);  // slots 1..3: prior 0, held at 0
+  initFeatureEstimator(est, sig, pose0);
+
+  const D c_true[4] = {0.03, 0, 0, 0};
+  Pose<D> truth{pose0[0], pose0[1], pose0[2]};
+  MotionContext<D> ctx;
+  ctx.dt = FeatureDrive::kDt;
+  std::mt19937 rng(3);
+  std::normal_distribution<D> noise(0, 0.03);
+  std::vector<D> ranges(36);
+  const auto& lc = laser.config();
+  for (int i = 0; i < 3000; ++i) {
+    const DiffDrive<D>::Input u = FeatureDrive::input(i);
+    ctx.x = truth.x;
+    ctx.y = truth.y;
+    ctx.setHeading(truth.theta);
+    const Increment<D> inc0 = drive.increment(u, DiffDrive<D>::nominal(), DiffDrive<D>::NoiseVec::Zero());
+    Eigen::Matrix3d di;
+    Eigen::Matrix<D, 3, 4> dp;
+    truth = applyIncrement(truth, eff.apply(inc0, c_true, ctx, di, dp));
+    ctx.advance(inc0.rho, DiffDrive<D>::encoderTravel(u));
+    const bool scan = i % 10 == 9;
+    for (int b = 0; scan && b < 36; ++b) {
+      const RayHit<D> hit = map.cast(truth.x, truth.y, truth.theta + lc.angle_min + b * lc.angle_inc);
+      ASSERT_TRUE(hit.hit);
+      ranges[b] = hit.range + noise(rng);
+    }
+    (void)est.cycle(u, FeatureDrive::kDt, scan ? ranges.data() : nullptr, typename Est::AkfT::NoObserver{});
+  }
+  const D c_est = est.akf().state()[kC], c_sig = std::sqrt(est.akf().covariance()(kC, kC));
+  std::printf("feature_motion wheel_R += c ds_R_speed: estimate %.4f +- %.4f (truth 0.03)\n", c_est, c_sig);
+  EXPECT_LT(c_sig, 0.01) << "the drive determines the coefficient";
+  EXPECT_NEAR(c_est, 0.03, 3 * c_sig);
+  EXPECT_EQ(est.akf().state()[kC + 1], 0.0);  // held slots stay exactly 0
+  EXPECT_NEAR(est.akf().state()[0], truth.x, 0.02);
+  EXPECT_NEAR(est.akf().state()[1], truth.y, 0.02);
+}
+
+TEST(FeatureEffects, RangeJacobiansAndTheHookAgreeWithTheHostFeatures) {
+  using M = Model<DiffDrive<D>, FeatureRange<4>>;
+  const RoomSetup s;
+  M m;
+  auto& fr = std::get<FeatureRange<4>>(m.effects);
+  ASSERT_TRUE(fr.configure(0, BeamFeature::kOne, 0.05, 0.01));
+  ASSERT_TRUE(fr.configure(1, BeamFeature::kInvCosInc, 0.05, 0.01));
+  ASSERT_TRUE(fr.configure(2, BeamFeature::kAlphaAngleSens, 0.05, 0.01));
+  ASSERT_TRUE(fr.configure(3, BeamFeature::kWAngleSens, 0.05, 0.01));
+  M::StateVec x = M::StateVec::Zero();
+  x << 3.7, 4.4, 0.6, 1, 1, 1, 0.01, 0.02, -0.01, 0.005;
+  const D c = std::cos(x[2]), sn = std::sin(x[2]), vx = 0.4, vy = -0.3, w = 0.7;
+  auto predicted = [&](const M::StateVec& xs, int i, D* r, D* hf) {
+    Eigen::Matrix<D, 1, 3> hp;
+    BeamContext<D> geo;
+    if (Akf<M>::expectedRange(s.map, s.laser, xs[0], xs[1], c, sn, i, 0.1, r, &hp, &geo) != Status::kOk) return false;
+    geo.vx = vx;
+    geo.vy = vy;
+    geo.w = w;
+    m.measure(xs, geo, r, hf);
+    return true;
+  };
+  int checked = 0;
+  for (int i = 0; i < s.laser.beams(); i += 3) {
+    D r0 = 0, r_nominal = 0;
+    D hf[M::kStates] = {};
+    if (!predicted(x, i, &r0, hf)) continue;
+    Eigen::Matrix<D, 1, 3> hp;
+    ASSERT_EQ(Akf<M>::expectedRange(s.map, s.laser, x[0], x[1], c, sn, i, 0.1, &r_nominal, &hp), Status::kOk);
+    // the correction is the sum of c_i g_i with g_i as the host computes it from the pose
+    BeamFeatureInputs<D> in;
+    ASSERT_TRUE(beamFeatureInputs(s.map, s.laser, x[0], x[1], x[2], i, c * vx + sn * vy, w, &in));
+    D expected = r_nominal;
+    for (int k = 0; k < 4; ++k) expected += x[M::offsetOf<FeatureRange<4>>() + k] * beamFeature(fr.slots[k].feature, in);
+    EXPECT_NEAR(r0, expected, 1e-9) << "beam " << i;
+    for (int k = M::offsetOf<FeatureRange<4>>(); k < M::kStates; ++k) {
+      const D e = 1e-6;
+      M::StateVec a = x, b = x;
+      a[k] += e;
+      b[k] -= e;
+      D ra, rb, dummy[M::kStates] = {};
+      ASSERT_TRUE(predicted(a, i, &ra, dummy) && predicted(b, i, &rb, dummy));
+      EXPECT_NEAR(hf[k], (ra - rb) / (2 * e), 1e-7 * (1 + std::abs(hf[k]))) << "beam " << i << " state " << k;
+    }
+    ++checked;
+  }
+  EXPECT_GE(checked, 6);
+}
+
+TEST(FeatureEffects, IncidenceRangeErrorIsEstimated) {
+  // truth: every range += 0.05 x (1/cos(inc) - 1), from the same feature code
+  using M = Model<DiffDrive<D>, FeatureRange<4>>;
+  using FR = FeatureRange<4>;
+  using Est = Estimator<M>;
+  constexpr int kC = M::offsetOf<FR>();
+  typename Est::MapT map;
+  ASSERT_TRUE(map.add({0, 0, 10, 0}) && map.add({10, 0, 10, 10}) && map.add({10, 10, 0, 10}) && map.add({0, 10, 0, 0}));
+  typename Est::LaserT laser;
+  ASSERT_TRUE(laser.init(LaserConfig<D>{}));
+  DiffDrive<D> drive;
+  drive.wheelbase = 0.5;
+  FR eff;
+  ASSERT_TRUE(eff.configure(0, BeamFeature::kInvCosInc, 0.1, 0.01));
+  M model(drive);
+  std::get<FR>(model.effects) = eff;
+  Est est(model, map, laser);
+  const D pose0[3] = {5, 2.75, 0};
+  M::StateVec sig = M::StateVec::Constant(1e-3);
+  for (int i = 0; i < 4; ++i) sig[kC + i] = priorSigma(eff, i);
+  initFeatureEstimator(est, sig, pose0);
+
+  const D c_true = 0.05;
+  Pose<D> truth{pose0[0], pose0[1], pose0[2]};
+  std::mt19937 rng(5);
+  std::normal_distribution<D> noise(0, 0.03);
+  std::vector<D> ranges(36);
+  for (int i = 0; i < 3000; ++i) {
+    const DiffDrive<D>::Input u = FeatureDrive::input(i);
+    truth = applyIncrement(truth, drive.increment(u, DiffDrive<D>::nominal(), DiffDrive<D>::NoiseVec::Zero()));
+    const bool scan = i % 10 == 9;
+    for (int b = 0; scan && b < 36; ++b) {
+      BeamFeatureInputs<D> in;
+      ASSERT_TRUE(beamFeatureInputs(map, laser, truth.x, truth.y, truth.theta, b, 0.0, 0.0, &in));
+      ranges[b] = in.range + c_true * beamFeature(BeamFeature::kInvCosInc, in) + noise(rng);
+    }
+    (void)est.cycle(u, FeatureDrive::kDt, scan ? ranges.data() : nullptr, typename Est::AkfT::NoObserver{});
+  }
+  const D c_est = est.akf().state()[kC], c_sig = std::sqrt(est.akf().covariance()(kC, kC));
+  std::printf("feature_range inv_cos_inc: estimate %.4f +- %.4f (truth %.2f)\n", c_est, c_sig, c_true);
+  EXPECT_LT(c_sig, 0.01) << "the drive determines the coefficient";
+  EXPECT_NEAR(c_est, c_true, 3 * c_sig);
+  EXPECT_NEAR(est.akf().state()[0], truth.x, 0.02);
+  EXPECT_NEAR(est.akf().state()[1], truth.y, 0.02);
+}
+
+}  // namespace
+}  // namespace odoerr
