@@ -1,6 +1,7 @@
 // The effect tests' shared pieces (test_effects.cpp, test_feature_effects.cpp): a motion
 // context at a mid-drive operating point, the check of a motion effect's Jacobians against
-// central finite differences, and a 10 m square room with a laser mounted off-centre.
+// central finite differences, a 10 m square room with a laser mounted off-centre, and the
+// room, laser and drive of the estimation tests.
 #pragma once
 
 #include <gtest/gtest.h>
@@ -10,6 +11,7 @@
 
 #include "odoerr/akf.hpp"
 #include "odoerr/effects/catalogue.hpp"
+#include "odoerr/estimator.hpp"
 
 namespace odoerr::effects_test {
 
@@ -77,6 +79,21 @@ struct RoomSetup {
     lc.mount_x = 0.1;
     lc.mount_y = 0.02;
     EXPECT_TRUE(laser.init(lc));
+  }
+};
+
+/// The estimation tests' world: a 10 m square room, the default laser, a diff drive with a
+/// 0.5 m wheelbase. `ok` is false when the room or the laser could not be built.
+template <typename Est>
+struct SquareRoom {
+  typename Est::MapT map;
+  typename Est::LaserT laser;
+  DiffDrive<D> drive;
+  bool ok = false;
+  SquareRoom() {
+    drive.wheelbase = 0.5;
+    ok = map.add({0, 0, 10, 0}) && map.add({10, 0, 10, 10}) && map.add({10, 10, 0, 10}) && map.add({0, 10, 0, 0}) &&
+         laser.init(LaserConfig<D>{});
   }
 };
 

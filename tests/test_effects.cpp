@@ -6,6 +6,7 @@
 
 #include <cstdio>
 #include <random>
+#include <tuple>
 
 #include "effects_support.hpp"
 #include "odoerr/akf.hpp"
@@ -441,12 +442,9 @@ TEST(EffectTutorial, ReverseScaleIsEstimatedFromADriveThatReverses) {
   using Est = Estimator<M>;
   static_assert(M::kStates == 7, "the pose, three drive parameters and the effect's one");
   constexpr int kK = M::offsetOf<examples::ReverseScale>();
-  typename Est::MapT map;
-  ASSERT_TRUE(map.add({0, 0, 10, 0}) && map.add({10, 0, 10, 10}) && map.add({10, 10, 0, 10}) && map.add({0, 10, 0, 0}));
-  typename Est::LaserT laser;
-  ASSERT_TRUE(laser.init(LaserConfig<D>{}));
-  DiffDrive<D> drive;
-  drive.wheelbase = 0.5;
+  SquareRoom<Est> room;
+  ASSERT_TRUE(room.ok);
+  const auto& [map, laser, drive] = std::tie(room.map, room.laser, room.drive);
   Est est(M(drive), map, laser);
   M::StateVec x0 = M::StateVec::Zero();
   x0 << 5, 5, 0.3, 0, 0, 0, 0;

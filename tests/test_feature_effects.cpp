@@ -5,6 +5,7 @@
 
 #include <cstdio>
 #include <random>
+#include <tuple>
 
 #include "effects_support.hpp"
 #include "odoerr/akf.hpp"
@@ -101,30 +102,29 @@ TEST(FeatureEffects, PriorsComeFromTheConfiguration) {
   EXPECT_STREQ(FeatureRange<2>::kName, "feature_range");
 }
 
+/// The filter's motion context after one prediction of model M from heading 0.3.
+template <typename M>
+auto contextAfterOnePrediction() {
+  DiffDrive<D> drive;
+  drive.wheelbase = 0.5;
+  Akf<M> akf{M(drive)};
+  typename M::StateVec x = M::StateVec::Zero();
+  x[2] = 0.3;
+  M::setNominal(x);
+  akf.init(x, M::StateVec::Constant(1e-4).asDiagonal());
+  EXPECT_EQ(akf.predict({0.012, 0.01}, Eigen::Matrix<D, 1, 1>(1e-6), 0.02), Status::kOk);
+  return akf.motionContext();
+}
+
 TEST(FeatureEffects, TheFilterGivesTheHeadingOnlyToModelsThatReadIt) {
   static_assert(Model<DiffDrive<D>, MF>::kUsesHeading);
   static_assert(!Model<DiffDrive<D>, TurnSlip, RegionScale, RangeBias>::kUsesHeading);
   static_assert(!Model<DiffDrive<float>>::kUsesHeading);
-  using M = Model<DiffDrive<D>, MF>;
-  DiffDrive<D> drive;
-  drive.wheelbase = 0.5;
-  Akf<M> akf{M(drive)};
-  M::StateVec x = M::StateVec::Zero();
-  x[2] = 0.3;
-  M::setNominal(x);
-  akf.init(x, M::StateVec::Constant(1e-4).asDiagonal());
-  ASSERT_EQ(akf.predict({0.012, 0.01}, Eigen::Matrix<D, 1, 1>(1e-6), 0.02), Status::kOk);
-  EXPECT_DOUBLE_EQ(akf.motionContext().heading, 0.3);  // the cycle's start
-  EXPECT_NEAR(akf.motionContext().cos_heading, std::cos(0.3), 1e-12);
-  EXPECT_NEAR(akf.motionContext().sin_heading, std::sin(0.3), 1e-12);
-  using MR = Model<DiffDrive<D>, RegionScale>;
-  Akf<MR> other{MR(drive)};
-  MR::StateVec xr = MR::StateVec::Zero();
-  xr[2] = 0.3;
-  MR::setNominal(xr);
-  other.init(xr, MR::StateVec::Constant(1e-4).asDiagonal());
-  ASSERT_EQ(other.predict({0.012, 0.01}, Eigen::Matrix<D, 1, 1>(1e-6), 0.02), Status::kOk);
-  EXPECT_EQ(other.motionContext().heading, 0.0);  // not filled
+  const auto ctx = contextAfterOnePrediction<Model<DiffDrive<D>, MF>>();
+  EXPECT_DOUBLE_EQ(ctx.heading, 0.3);  // the cycle's start
+  EXPECT_NEAR(ctx.cos_heading, std::cos(0.3), 1e-12);
+  EXPECT_NEAR(ctx.sin_heading, std::sin(0.3), 1e-12);
+  EXPECT_EQ((contextAfterOnePrediction<Model<DiffDrive<D>, RegionScale>>().heading), 0.0);  // not filled
 }
 
 // A drive in a 10 m room: a circle of radius 2.25 m around the centre at a speed varying
@@ -137,17 +137,29 @@ struct FeatureDrive {
   }
 };
 
-template <typename Est>
-void initFeatureEstimator(Est& est, const typename Est::Model::StateVec& sig, const D* x0_pose) {
+constexpr D kPose0[3] = {5, 2.75, 0};
+
+/// The estimator of a feature-effect test: the room's drive with the feature effect `eff`
+/// composed in, started at kPose0 with sigma 1e-3 on the pose and drive and the effect's
+/// configured priors on its slots (an unconfigured slot: prior 0, held at 0).
+template <typename Est, typename E>
+Est featureEstimator(const SquareRoom<Est>& room, const E& eff) {
   using M = typename Est::Model;
+  M model(room.drive);
+  std::get<E>(model.effects) = eff;
+  Est est(model, room.map, room.laser);
+  constexpr int kC = M::template offsetOf<E>();
+  typename M::StateVec sig = M::StateVec::Constant(1e-3);
+  for (int i = 0; i < E::kParams; ++i) sig[kC + i] = priorSigma(eff, i);
   typename M::StateVec x0 = M::StateVec::Zero();
-  x0[0] = x0_pose[0];
-  x0[1] = x0_pose[1];
-  x0[2] = x0_pose[2];
+  x0[0] = kPose0[0];
+  x0[1] = kPose0[1];
+  x0[2] = kPose0[2];
   M::setNominal(x0);
   typename Est::OfT::KVec k0 = Est::OfT::KVec::Constant(1e-6);
   est.init(x0, sig.cwiseAbs2().asDiagonal(), k0, (k0 * 0.1).cwiseAbs2().asDiagonal());
   est.freezeNonSystematic(true);
+  return est;
 }
 
 TEST(FeatureEffects, WheelSpeedErrorIsEstimatedFromADriveOfVaryingSpeed) {
@@ -155,27 +167,18 @@ TEST(FeatureEffects, WheelSpeedErrorIsEstimatedFromADriveOfVaryingSpeed) {
   using M = Model<DiffDrive<D>, MF>;
   using Est = Estimator<M>;
   constexpr int kC = M::offsetOf<MF>();
-  typename Est::MapT map;
-  ASSERT_TRUE(map.add({0, 0, 10, 0}) && map.add({10, 0, 10, 10}) && map.add({10, 10, 0, 10}) && map.add({0, 10, 0, 0}));
-  typename Est::LaserT laser;
-  ASSERT_TRUE(laser.init(LaserConfig<D>{}));
-  DiffDrive<D> drive;
-  drive.wheelbase = 0.5;
+  SquareRoom<Est> room;
+  ASSERT_TRUE(room.ok);
+  const auto& [map, laser, drive] = std::tie(room.map, room.laser, room.drive);
   MF eff;
   eff.wheelbase = drive.wheelbase;
   eff.xc = 5;
   eff.yc = 5;
   ASSERT_TRUE(eff.configure(0, FM::kDsRSpeed, MT::kWheelR, 0.1, 0.01));
-  M model(drive);
-  std::get<MF>(model.effects) = eff;
-  Est est(model, map, laser);
-  const D pose0[3] = {5, 2.75, 0};
-  M::StateVec sig = M::StateVec::Constant(1e-3);
-  for (int i = 0; i < 4; ++i) sig[kC + i] = priorSigma(eff, i);  // slots 1..3: prior 0, held at 0
-  initFeatureEstimator(est, sig, pose0);
+  Est est = featureEstimator(room, eff);  // slots 1..3: prior 0, held at 0
 
   const D c_true[4] = {0.03, 0, 0, 0};
-  Pose<D> truth{pose0[0], pose0[1], pose0[2]};
+  Pose<D> truth{kPose0[0], kPose0[1], kPose0[2]};
   MotionContext<D> ctx;
   ctx.dt = FeatureDrive::kDt;
   std::mt19937 rng(3);
@@ -264,24 +267,15 @@ TEST(FeatureEffects, IncidenceRangeErrorIsEstimated) {
   using FR = FeatureRange<4>;
   using Est = Estimator<M>;
   constexpr int kC = M::offsetOf<FR>();
-  typename Est::MapT map;
-  ASSERT_TRUE(map.add({0, 0, 10, 0}) && map.add({10, 0, 10, 10}) && map.add({10, 10, 0, 10}) && map.add({0, 10, 0, 0}));
-  typename Est::LaserT laser;
-  ASSERT_TRUE(laser.init(LaserConfig<D>{}));
-  DiffDrive<D> drive;
-  drive.wheelbase = 0.5;
+  SquareRoom<Est> room;
+  ASSERT_TRUE(room.ok);
+  const auto& [map, laser, drive] = std::tie(room.map, room.laser, room.drive);
   FR eff;
   ASSERT_TRUE(eff.configure(0, BeamFeature::kInvCosInc, 0.1, 0.01));
-  M model(drive);
-  std::get<FR>(model.effects) = eff;
-  Est est(model, map, laser);
-  const D pose0[3] = {5, 2.75, 0};
-  M::StateVec sig = M::StateVec::Constant(1e-3);
-  for (int i = 0; i < 4; ++i) sig[kC + i] = priorSigma(eff, i);
-  initFeatureEstimator(est, sig, pose0);
+  Est est = featureEstimator(room, eff);
 
   const D c_true = 0.05;
-  Pose<D> truth{pose0[0], pose0[1], pose0[2]};
+  Pose<D> truth{kPose0[0], kPose0[1], kPose0[2]};
   std::mt19937 rng(5);
   std::normal_distribution<D> noise(0, 0.03);
   std::vector<D> ranges(36);
