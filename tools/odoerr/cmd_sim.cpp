@@ -58,7 +58,11 @@ int writeSimLog(const std::string& out, std::uint64_t seed, int steps, const std
 
 /// Records one closed-loop drive as a core-replay tape (firmware/include/odoerr/fw/tape.hpp).
 /// Faults written into a tape's ranges (`odoerr tape --faults`): what the target's soak
-/// replays (docs/reliability.md, "Float32 soak"). The drive itself is recorded clean.
+/// replays (docs/reliability.md, "Float32 soak"). The drive itself is recorded clean. Not
+/// the host soak's injector (tests/soak/soak.cpp), on purpose: that one drops a scan by not
+/// offering it, gives four forms of no return and bursts over 2-8 adjacent beams for 10-50
+/// cycles with an outlier margin, and checks every beam's outcome; here a dropped scan is
+/// offered with every range NaN, and the two draw different random streams.
 struct TapeFaults {
   double drop_scan = 0.10;      ///< a whole scan lost: every range NaN
   double no_return = 0.01;      ///< one beam without a return: NaN
