@@ -79,7 +79,7 @@ int runDiagnose(const std::string& log_path, const std::string& json_path, Diagn
 }
 
 int runPaper(const std::string& drive, int runs, const std::string& out, std::uint64_t seed,
-             int threads, bool plots, const std::string& pose_term, int window, const std::string& of, int ml_every) {
+             int threads, bool plots, const std::string& pose_term, int window, const std::string& of, int ml_every, double ml_reset, double ml_inflate) {
   std::string err;
   const fs::path dir(out);
   if (!prepareOutDir(dir, &err)) {
@@ -94,6 +94,8 @@ int runPaper(const std::string& drive, int runs, const std::string& out, std::ui
   opt.setup.of.window = window;
   opt.of = of == "ml" ? OfKind::kMl : OfKind::kPaper;
   opt.ml.every = ml_every;
+  opt.ml.reset_log = ml_reset;
+  opt.ml.inflate = ml_inflate;
   opt.setup.of.pose_term = pose_term == "literal" ? PoseErrorTerm::kLiteral : PoseErrorTerm::kExpected;
   ProgressBar bar(std::string("paper ") + drive);
   opt.progress = [&bar](int d, int t) { bar(d, t); };
@@ -107,6 +109,7 @@ int runPaper(const std::string& drive, int runs, const std::string& out, std::ui
   const std::string csv_name = std::string("paper_") + drive + ".csv";
   if (!writeFile(dir / "summary.json", summaryJson(res), &err) ||
       !writeFile(dir / csv_name, paperCsv(res), &err) ||
+      !writeFile(dir / ("runs_" + drive + ".csv"), runsCsv(res, seed), &err) ||
       !writeFile(dir / "health.json", healthJson(res), &err)) {
     std::fprintf(stderr, "odoerr paper: %s\n", err.c_str());
     return 1;
@@ -147,6 +150,8 @@ int main(int argc, char** argv) {
   int window = 1;
   std::string of_kind = "paper";
   int ml_every = 10;
+  double ml_reset = KMlConfig<double>{}.reset_log;
+  double ml_inflate = KMlConfig<double>{}.inflate;
   paper->add_option("--drive", drive, "sync or diff")->check(CLI::IsMember({"sync", "diff"}));
   paper->add_option("--runs", runs, "Monte Carlo runs per start (> 0)")
       ->check(CLI::PositiveNumber);
@@ -162,6 +167,14 @@ int main(int argc, char** argv) {
                     "likelihood of K from the AKF's innovations; docs/nonsystematic.md)")
       ->check(CLI::IsMember({"paper", "ml"}));
   paper->add_option("--ml-every", ml_every, "ml: cycles between K steps (1..100)")->check(CLI::Range(1, 100));
+  paper->add_option("--ml-reset", ml_reset,
+                    "ml: restart the information and sensitivities when log K has moved this far (0: never)")
+      ->check(CLI::Range(0.0, 10.0))
+      ->capture_default_str();
+  paper->add_option("--ml-inflate", ml_inflate,
+                    "ml: run the AKF with K exp(C sigma_logK - 0.3), capped at 100x, while K is uncertain (0: off)")
+      ->check(CLI::Range(0.0, 10.0))
+      ->capture_default_str();
   paper->add_flag("--no-plots", no_plots, "skip the PNG figures");
 
   auto* diag = app.add_subcommand("diagnose", "does the model explain the measurements; which effect is missing");
@@ -224,7 +237,7 @@ int main(int argc, char** argv) {
   if (const int rc = commands.runParsed(); rc >= 0) return rc;
 
   if (paper->parsed()) {
-    return runPaper(drive, runs, out, seed, threads, !no_plots, pose_term, window, of_kind, ml_every);
+    return runPaper(drive, runs, out, seed, threads, !no_plots, pose_term, window, of_kind, ml_every, ml_reset, ml_inflate);
   }
   if (replay->parsed()) {
     Odolog log;
