@@ -156,7 +156,8 @@ TEST(KMl, FilterKInflatedWhileNoInformation) {
 
 // From 100x below the truth, 20 runs of 10 m on the sync drive: with the restarts and the
 // inflated filter K (the defaults) K reaches the truth's neighbourhood, the reported sigma
-// follows the spread, and delta_rho keeps its spread near the one from above.
+// follows the spread, and delta_rho keeps its spread near the one from above. The plain
+// recursion (no restart, no inflation) fails all three (printed: 0.58x, sigma 0.1x the spread).
 TEST(KMl, ConvergesFromBelowSync) {
   const KMlConfig<double> def;
   KMlConfig<double> old = def;
@@ -175,5 +176,8 @@ TEST(KMl, ConvergesFromBelowSync) {
     EXPECT_GT(honesty, 0.5) << "K" << i << " sigma too small against the spread";
     EXPECT_LT(honesty, 2.0) << "K" << i << " sigma too large against the spread";
   }
-  EXPECT_LT(below.sys_spread, 1.6 * above.sys_spread) << "delta_rho damaged from below";
+  // delta_rho's spread from below at 10 m: below the plain recursion's (which the over-trusted
+  // odometry damages) and within 2x the spread from above.
+  EXPECT_LT(below.sys_spread, 0.7 * below_old.sys_spread) << "delta_rho damaged from below";
+  EXPECT_LT(below.sys_spread, 2.0 * above.sys_spread) << "delta_rho damaged from below";
 }

@@ -164,6 +164,7 @@ PaperResult runPaperExperiment(const PaperOptions& opt) {
   PaperResult res;
   res.drive = opt.drive;
   res.of = opt.of;
+  res.figure_eight = opt.sim.figure_eight;
   res.runs = opt.runs;
   const auto t0 = std::chrono::steady_clock::now();
   if (opt.drive == DriveKind::kSync) {
@@ -193,6 +194,7 @@ std::string summaryJson(const PaperResult& r) {
   j["drive"] = toString(r.drive);
   j["runs"] = r.runs;
   j["of"] = toString(r.of);
+  j["path"] = r.figure_eight ? "eight" : "circle";
   j["wall_time_s"] = std::round(r.wall_time_s * 1000.0) / 1000.0;
   j["bound"] = {{"what", "Cramér-Rao bound (odoerr bound) on run 0's drive, 100 sigma / true value"},
                 {"wall_time_s", std::round(r.bound_time_s * 1000.0) / 1000.0}};

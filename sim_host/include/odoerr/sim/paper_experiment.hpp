@@ -49,6 +49,7 @@ struct CaseResult {
 struct PaperResult {
   DriveKind drive = DriveKind::kSync;
   OfKind of = OfKind::kPaper;
+  bool figure_eight = false;  ///< the drive's path (SimConfig::figure_eight)
   int runs = 0;
   double wall_time_s = 0;
   std::vector<CaseResult> cases;  ///< small, large
