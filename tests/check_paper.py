@@ -29,8 +29,9 @@ def main():
     with open(os.path.join(a.dir, "summary.json")) as f:
         s = json.load(f)
     names = SYNC if a.drive == "sync" else DIFF
-    check(set(s) == {"drive", "runs", "of", "path", "wall_time_s", "bound", "cases"}, "top-level keys")
+    check(set(s) == {"drive", "runs", "of", "path", "radius_m", "wall_time_s", "bound", "cases"}, "top-level keys")
     check(s["path"] in ("circle", "eight"), "path is circle or eight")
+    check(0 < s["radius_m"] <= (5 if s["path"] == "circle" else 2.5), "radius inside the room")
     check(s["of"] in ("paper", "ml"), "of is paper or ml")
     check(s["drive"] == a.drive and s["runs"] == a.runs, "drive and runs")
     check([c["init"] for c in s["cases"]] == ["small", "large"], "cases small, large")

@@ -165,6 +165,7 @@ PaperResult runPaperExperiment(const PaperOptions& opt) {
   res.drive = opt.drive;
   res.of = opt.of;
   res.figure_eight = opt.sim.figure_eight;
+  res.radius_m = opt.sim.radius;
   res.runs = opt.runs;
   const auto t0 = std::chrono::steady_clock::now();
   if (opt.drive == DriveKind::kSync) {
@@ -195,6 +196,7 @@ std::string summaryJson(const PaperResult& r) {
   j["runs"] = r.runs;
   j["of"] = toString(r.of);
   j["path"] = r.figure_eight ? "eight" : "circle";
+  j["radius_m"] = r.radius_m;
   j["wall_time_s"] = std::round(r.wall_time_s * 1000.0) / 1000.0;
   j["bound"] = {{"what", "Cramér-Rao bound (odoerr bound) on run 0's drive, 100 sigma / true value"},
                 {"wall_time_s", std::round(r.bound_time_s * 1000.0) / 1000.0}};

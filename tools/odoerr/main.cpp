@@ -81,7 +81,7 @@ int runDiagnose(const std::string& log_path, const std::string& json_path, Diagn
 
 int runPaper(const std::string& drive, int runs, const std::string& out, std::uint64_t seed,
              int threads, bool plots, const std::string& pose_term, int window, const std::string& of, int ml_every, double ml_reset, double ml_inflate,
-             double ml_inflate_cap, const std::string& path) {
+             double ml_inflate_cap, const std::string& path, double radius) {
   std::string err;
   const fs::path dir(out);
   if (!prepareOutDir(dir, &err)) {
@@ -99,6 +99,15 @@ int runPaper(const std::string& drive, int runs, const std::string& out, std::ui
   if (path == "eight") {
     opt.sim.figure_eight = true;
     opt.sim.radius = 2.0;  // two 2 m lobes centred 2 m above and below the room's centre
+  }
+  if (radius > 0) {
+    const double max_r = path == "eight" ? 2.5 : 5.0;  // inside the 10 m room
+    if (radius > max_r) {
+      std::fprintf(stderr, "odoerr paper: --radius %g is outside the room (at most %g m for --path %s)\n", radius,
+                   max_r, path.c_str());
+      return 1;
+    }
+    opt.sim.radius = radius;
   }
   opt.ml.reset_log = ml_reset;
   opt.ml.inflate = ml_inflate;
@@ -158,6 +167,7 @@ int main(int argc, char** argv) {
   std::string of_kind = "paper";
   int ml_every = 10;
   std::string path = "circle";
+  double radius = 0;
   double ml_reset = KMlConfig<double>{}.reset_log;
   double ml_inflate = KMlConfig<double>{}.inflate;
   double ml_inflate_cap = std::round(std::exp(KMlConfig<double>{}.max_inflate_log));
@@ -179,6 +189,10 @@ int main(int argc, char** argv) {
                     "circle (the paper's 5 m circle) or eight (a figure-eight of two 2 m lobes, turning both "
                     "ways: excites delta_d)")
       ->check(CLI::IsMember({"circle", "eight"}));
+  paper->add_option("--radius", radius,
+                    "the circle's radius or the eight's lobe radius in m (default 5 or 2; the 5 m circle "
+                    "touches the walls' midpoints)")
+      ->check(CLI::Range(0.5, 5.0));
   paper->add_option("--ml-every", ml_every, "ml: cycles between K steps (1..100)")->check(CLI::Range(1, 100));
   paper->add_option("--ml-reset", ml_reset,
                     "ml: restart the information and sensitivities when log K has moved this far (0: never)")
@@ -253,7 +267,7 @@ int main(int argc, char** argv) {
   if (const int rc = commands.runParsed(); rc >= 0) return rc;
 
   if (paper->parsed()) {
-    return runPaper(drive, runs, out, seed, threads, !no_plots, pose_term, window, of_kind, ml_every, ml_reset, ml_inflate, ml_inflate_cap, path);
+    return runPaper(drive, runs, out, seed, threads, !no_plots, pose_term, window, of_kind, ml_every, ml_reset, ml_inflate, ml_inflate_cap, path, radius);
   }
   if (replay->parsed()) {
     Odolog log;

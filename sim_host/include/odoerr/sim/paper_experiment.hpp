@@ -50,6 +50,7 @@ struct PaperResult {
   DriveKind drive = DriveKind::kSync;
   OfKind of = OfKind::kPaper;
   bool figure_eight = false;  ///< the drive's path (SimConfig::figure_eight)
+  double radius_m = 0;        ///< its radius (the circle's, or each lobe's)
   int runs = 0;
   double wall_time_s = 0;
   std::vector<CaseResult> cases;  ///< small, large
