@@ -181,3 +181,31 @@ TEST(KMl, ConvergesFromBelowSync) {
   EXPECT_LT(below.sys_spread, 0.7 * below_old.sys_spread) << "delta_rho damaged from below";
   EXPECT_LT(below.sys_spread, 2.0 * above.sys_spread) << "delta_rho damaged from below";
 }
+
+// The reported covariance of K_w carries delta_d's uncertainty (the data fix K_w / delta_d^2):
+// var(log K_w) gains 4 P_dd / delta_d^2. The sync drive's Q does not depend on its parameters.
+TEST(KMl, CovarianceWithSystematicAddsDeltaDOnDiff) {
+  using DiffEst = decltype(makeEstimator<double, DiffDrive>(std::declval<const PaperSim<DiffDrive<double>>&>(),
+                                                            std::declval<const FilterSetup&>(), NonSysStart::kSmall));
+  using DiffModel = DiffEst::Model;
+  using D = DiffModel::Drive;
+  KMlConfig<double> c;
+  c.inflate = 0;
+  KMaxLikelihood<DiffModel> ml(c);
+  KMaxLikelihood<DiffModel>::KVec k0;
+  k0 << 2.5e-4;
+  ml.init(k0);
+  KMaxLikelihood<DiffModel>::StateVec x = KMaxLikelihood<DiffModel>::StateVec::Zero();
+  KMaxLikelihood<DiffModel>::StateMat p = KMaxLikelihood<DiffModel>::StateMat::Identity() * 1e-6;
+  constexpr int kD = DiffModel::kDriveOffset + D::kDeltaD;
+  x[kD] = 1.1;
+  p(kD, kD) = 0.01;  // sigma(delta_d) 0.1, 9.1 %
+  const double base = ml.covariance()(0, 0);
+  const double with = ml.covarianceWithSystematic(x, p)(0, 0);
+  EXPECT_NEAR(with - base, k0[0] * k0[0] * 4 * 0.01 / (1.1 * 1.1), 1e-18);
+  KMaxLikelihood<SyncModel> sml(c);
+  sml.init(KMaxLikelihood<SyncModel>::KVec(1e-3, 3e-4));
+  KMaxLikelihood<SyncModel>::StateVec xs = KMaxLikelihood<SyncModel>::StateVec::Ones();
+  KMaxLikelihood<SyncModel>::StateMat ps = KMaxLikelihood<SyncModel>::StateMat::Identity() * 0.01;
+  EXPECT_EQ(sml.covarianceWithSystematic(xs, ps), sml.covariance());
+}

@@ -25,6 +25,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <type_traits>
 
 #include <Eigen/Cholesky>
 
@@ -116,6 +117,23 @@ class KMaxLikelihood {
     }
     const KMat ci = llt.solve(KMat::Identity());
     return k_.asDiagonal() * ci * k_.asDiagonal();
+  }
+  /// covariance() with the systematic parameters' uncertainty carried over where Q depends
+  /// on them. On the differential drive the heading noise is K_w (|dR| + |dL|) / (d delta_d)^2,
+  /// so the innovations fix K_w / delta_d^2, and J (at the estimated delta_d) misses the
+  /// share of delta_d: var(log K_w) gains 4 P_dd / delta_d^2 (x, p: the AKF's state and
+  /// covariance). The synchronous drive's Q does not depend on its parameters: covariance().
+  KMat covarianceWithSystematic(const StateVec& x, const StateMat& p) const {
+    KMat c = covariance();
+    if constexpr (std::is_same_v<Drive, DiffDrive<S>>) {
+      constexpr int kD = Model::kDriveOffset + Drive::kDeltaD;
+      const S dd = x[kD];
+      if (dd > S(0) && p(kD, kD) >= S(0)) {
+        const S var_log = S(4) * p(kD, kD) / (dd * dd);
+        c(Drive::kKw, Drive::kKw) += k_[Drive::kKw] * k_[Drive::kKw] * var_log;
+      }
+    }
+    return c;
   }
   const KMlCounters& counters() const { return counters_; }
   const KVec& blockScore() const { return g_; }

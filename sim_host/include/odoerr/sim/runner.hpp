@@ -153,7 +153,7 @@ Trace runDrive(const SimConfig& cfg, std::uint64_t seed, NonSysStart start, cons
     const auto& x = akfNow().state();
     const auto& p = akfNow().covariance();
     const auto k = use_ml ? ml.ml().estimate() : est.of().estimate();
-    const auto pk = use_ml ? ml.ml().covariance() : est.of().covariance();
+    const auto pk = use_ml ? ml.ml().covarianceWithSystematic(x, p) : est.of().covariance();
     tr.distance_m.push_back(dist);
     const std::size_t base = tr.values.size();
     tr.values.resize(base + L::kSize);
