@@ -29,7 +29,9 @@ def main():
     with open(os.path.join(a.dir, "summary.json")) as f:
         s = json.load(f)
     names = SYNC if a.drive == "sync" else DIFF
-    check(set(s) == {"drive", "runs", "of", "wall_time_s", "bound", "cases"}, "top-level keys")
+    check(set(s) == {"drive", "runs", "of", "path", "radius_m", "wall_time_s", "bound", "cases"}, "top-level keys")
+    check(s["path"] in ("circle", "eight"), "path is circle or eight")
+    check(0 < s["radius_m"] <= (5 if s["path"] == "circle" else 2.5), "radius inside the room")
     check(s["of"] in ("paper", "ml"), "of is paper or ml")
     check(s["drive"] == a.drive and s["runs"] == a.runs, "drive and runs")
     check([c["init"] for c in s["cases"]] == ["small", "large"], "cases small, large")
@@ -40,12 +42,34 @@ def main():
             check(set(cp) == {"distance_m", "params", "pose_rms"}, "checkpoint keys")
             check(sorted(cp["params"]) == sorted(names), "parameter names")
             for v in cp["params"].values():
-                check(set(v) == {"true", "mean", "accuracy_pct", "bound_pct", "rmse"}, "parameter keys")
-                check(all(math.isfinite(x) for x in v.values()), "finite values")
+                check(set(v) == {"true", "mean", "accuracy_pct", "bound_pct", "rmse", "sigma_mean", "sigma_ratio"},
+                      "parameter keys")
+                check(all(math.isfinite(x) for k, x in v.items() if k != "sigma_ratio"), "finite values")
+                # sigma honesty: mean reported sigma over the spread across runs (null: no spread)
+                sd = v["accuracy_pct"] / 100 * abs(v["mean"])
+                if sd > 0:
+                    check(v["sigma_ratio"] is not None and abs(v["sigma_ratio"] - v["sigma_mean"] / sd) <= 1e-6 * v["sigma_ratio"],
+                          "sigma_ratio = sigma_mean / spread")
+                check(v["sigma_mean"] >= 0, "sigma_mean not negative")
                 check(v["bound_pct"] > 0, "positive bound")
             check(set(cp["pose_rms"]) == {"position_m", "orientation_rad"}, "pose_rms keys")
     csv = os.path.join(a.dir, f"paper_{a.drive}.csv")
     check(os.path.getsize(csv) > 1000, "CSV written")
+    # runs_<drive>.csv: one row per run and start, each run's last record
+    with open(os.path.join(a.dir, f"runs_{a.drive}.csv")) as f:
+        lines = f.read().splitlines()
+    head = lines[0].split(",")
+    check(head[:3] == ["init", "run", "seed"] and head[3:3 + len(names)] == names, "runs CSV header")
+    check(len(lines) == 1 + 2 * a.runs, f"runs CSV rows {len(lines) - 1} (2 x {a.runs})")
+    for ln in lines[1:]:
+        cells = ln.split(",")
+        check(len(cells) == len(head) and all(math.isfinite(float(x)) for x in cells[3:]), "runs CSV row")
+    for c in s["cases"]:
+        # the summary's mean at 30 m is the mean of the runs' last values
+        rows = [ln.split(",") for ln in lines[1:] if ln.startswith(c["init"] + ",")]
+        n0 = names[0]
+        mu = sum(float(r[3]) for r in rows) / len(rows)
+        check(abs(mu - c["checkpoints"][-1]["params"][n0]["mean"]) <= 1e-6 * abs(mu), "runs CSV agrees with the summary")
     if a.plots:
         fig = "fig1_sync.png" if a.drive == "sync" else "fig2_diff.png"
         for png in (fig, f"pose_{a.drive}.png"):

@@ -92,7 +92,37 @@ long allocationsInCycles() {
   return g_allocs.load();
 }
 
+/// The same with the recursive ML estimator of K (k_ml.hpp) beside the AKF (MlDriver: the
+/// AKF's cycle with the sensitivities, the score and the K steps).
+template <typename S, template <typename> class DriveT>
+long allocationsInMlCycles() {
+  SimConfig cfg;
+  FilterSetup setup;
+  PaperSim<DriveT<double>> sim(cfg, 3);
+  auto est = makeEstimator<S, DriveT>(sim, setup, NonSysStart::kSmall);
+  MlDriver<decltype(est)> ml(est, KMlConfig<S>{});
+  struct In { typename DriveT<S>::Input u; S r[kMaxBeams]; };
+  std::vector<In> inputs(200);
+  for (auto& in : inputs) {
+    const auto& x = est.akf().state();
+    typename DriveT<double>::ParamVec pp = DriveT<double>::nominal();
+    const auto st = sim.step({double(x[0]), double(x[1]), double(x[2])}, pp);
+    in.u = convertInput<typename DriveT<S>::Input>(st.input);
+    for (int i = 0; i < cfg.laser.beams; ++i) in.r[i] = S(st.ranges[i]);
+  }
+  {
+    Armed guard;
+    for (const auto& in : inputs) ml.cycle(in.u, in.r);
+  }
+  EXPECT_GT(ml.ml().counters().beams, 200u * 20u) << "the cycles must really fuse beams";
+  EXPECT_EQ(ml.ml().counters().steps + ml.ml().counters().skipped, 20u) << "a K step every 10 cycles";
+  return g_allocs.load();
+}
+
 }  // namespace
+
+TEST(NoHeap, MlCycleSyncDouble) { EXPECT_EQ((allocationsInMlCycles<double, SyncDrive>()), 0); }
+TEST(NoHeap, MlCycleDiffDouble) { EXPECT_EQ((allocationsInMlCycles<double, DiffDrive>()), 0); }
 
 TEST(NoHeap, HookDetectsAllocations) {
   long seen = 0;

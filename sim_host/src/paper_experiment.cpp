@@ -69,6 +69,18 @@ CaseResult aggregate(const std::vector<Trace>& traces, const SimConfig& cfg, Non
     c.heading_sigma_mean_rad.push_back(hs / n);
   }
   for (const Trace& t : traces) {
+    const double* row = &t.values[(records - 1) * t.width];
+    std::vector<double> v(L::kP + L::kM), sg(L::kP + L::kM);
+    for (int q = 0; q < L::kP + L::kM; ++q) {
+      v[q] = row[L::kValue + q];
+      sg[q] = row[L::kSigma + q];
+    }
+    c.final_values.push_back(v);
+    c.final_sigmas.push_back(sg);
+    c.final_pos_err_m.push_back(row[L::kPosErr]);
+    c.final_heading_err_rad.push_back(row[L::kHeadErr]);
+  }
+  for (const Trace& t : traces) {
     c.beams_used += t.beams_used;
     c.gated += t.gated;
     c.grazing += t.grazing;
@@ -152,6 +164,8 @@ PaperResult runPaperExperiment(const PaperOptions& opt) {
   PaperResult res;
   res.drive = opt.drive;
   res.of = opt.of;
+  res.figure_eight = opt.sim.figure_eight;
+  res.radius_m = opt.sim.radius;
   res.runs = opt.runs;
   const auto t0 = std::chrono::steady_clock::now();
   if (opt.drive == DriveKind::kSync) {
@@ -181,6 +195,8 @@ std::string summaryJson(const PaperResult& r) {
   j["drive"] = toString(r.drive);
   j["runs"] = r.runs;
   j["of"] = toString(r.of);
+  j["path"] = r.figure_eight ? "eight" : "circle";
+  j["radius_m"] = r.radius_m;
   j["wall_time_s"] = std::round(r.wall_time_s * 1000.0) / 1000.0;
   j["bound"] = {{"what", "Cramér-Rao bound (odoerr bound) on run 0's drive, 100 sigma / true value"},
                 {"wall_time_s", std::round(r.bound_time_s * 1000.0) / 1000.0}};
@@ -198,11 +214,17 @@ std::string summaryJson(const PaperResult& r) {
       for (std::size_t q = 0; q < c.names.size(); ++q) {
         const Stat& s = c.params[i][q];
         const double b = r.bound_pct.empty() ? std::nan("") : r.bound_pct[i][q];
+        // Sigma honesty: the mean reported sigma over the spread (population std) across
+        // runs; null when the spread is zero (one run) or undefined.
+        const double spread = s.accuracy_pct / 100.0 * std::abs(s.mean);
+        const double ratio = spread > 0 && std::isfinite(spread) ? s.sigma_mean / spread : std::nan("");
         params[c.names[q]] = {{"true", s.truth},
                               {"mean", s.mean},
                               {"accuracy_pct", s.accuracy_pct},
                               {"bound_pct", std::isfinite(b) ? json(b) : json(nullptr)},
-                              {"rmse", s.rmse}};
+                              {"rmse", s.rmse},
+                              {"sigma_mean", s.sigma_mean},
+                              {"sigma_ratio", std::isfinite(ratio) ? json(ratio) : json(nullptr)}};
       }
       cp["params"] = params;
       cp["pose_rms"] = {{"position_m", c.pos_rms_m[i]}, {"orientation_rad", c.heading_rms_rad[i]}};
@@ -246,6 +268,31 @@ std::string paperCsv(const PaperResult& r) {
       num(c.heading_rms_rad[i]);
       num(c.pos_sigma_mean_m[i]);
       num(c.heading_sigma_mean_rad[i]);
+      out += "\n";
+    }
+  }
+  return out;
+}
+
+std::string runsCsv(const PaperResult& r, std::uint64_t seed0) {
+  std::string out = "init,run,seed";
+  const CaseResult& c0 = r.cases.front();
+  for (const std::string& n : c0.names) out += "," + n;
+  for (const std::string& n : c0.names) out += "," + n + "_sigma";
+  out += ",pos_err_m,heading_err_rad\n";
+  char buf[64];
+  auto num = [&](double v) {
+    std::snprintf(buf, sizeof buf, ",%.9g", v);
+    out += buf;
+  };
+  for (const CaseResult& c : r.cases) {
+    for (std::size_t k = 0; k < c.final_values.size(); ++k) {
+      out += toString(c.start);
+      out += "," + std::to_string(k) + "," + std::to_string(seed0 + k);
+      for (double v : c.final_values[k]) num(v);
+      for (double v : c.final_sigmas[k]) num(v);
+      num(c.final_pos_err_m[k]);
+      num(c.final_heading_err_rad[k]);
       out += "\n";
     }
   }

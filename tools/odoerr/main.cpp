@@ -6,6 +6,7 @@
 //   odoerr diagnose LOG --json OUT [--with E1,E2|auto] [--out DIR] [--suggest DIR]   model against measurements
 //   odoerr report LOG --out DIR [--with E1,E2]             diagnose + a self-contained HTML page
 #include <cerrno>
+#include <cmath>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -79,7 +80,8 @@ int runDiagnose(const std::string& log_path, const std::string& json_path, Diagn
 }
 
 int runPaper(const std::string& drive, int runs, const std::string& out, std::uint64_t seed,
-             int threads, bool plots, const std::string& pose_term, int window, const std::string& of, int ml_every) {
+             int threads, bool plots, const std::string& pose_term, int window, const std::string& of, int ml_every, double ml_reset, double ml_inflate,
+             double ml_inflate_cap, const std::string& path, double radius) {
   std::string err;
   const fs::path dir(out);
   if (!prepareOutDir(dir, &err)) {
@@ -94,6 +96,22 @@ int runPaper(const std::string& drive, int runs, const std::string& out, std::ui
   opt.setup.of.window = window;
   opt.of = of == "ml" ? OfKind::kMl : OfKind::kPaper;
   opt.ml.every = ml_every;
+  if (path == "eight") {
+    opt.sim.figure_eight = true;
+    opt.sim.radius = 2.0;  // two 2 m lobes centred 2 m above and below the room's centre
+  }
+  if (radius > 0) {
+    const double max_r = path == "eight" ? 2.5 : 5.0;  // inside the 10 m room
+    if (radius > max_r) {
+      std::fprintf(stderr, "odoerr paper: --radius %g is outside the room (at most %g m for --path %s)\n", radius,
+                   max_r, path.c_str());
+      return 1;
+    }
+    opt.sim.radius = radius;
+  }
+  opt.ml.reset_log = ml_reset;
+  opt.ml.inflate = ml_inflate;
+  opt.ml.max_inflate_log = std::log(ml_inflate_cap);
   opt.setup.of.pose_term = pose_term == "literal" ? PoseErrorTerm::kLiteral : PoseErrorTerm::kExpected;
   ProgressBar bar(std::string("paper ") + drive);
   opt.progress = [&bar](int d, int t) { bar(d, t); };
@@ -107,6 +125,7 @@ int runPaper(const std::string& drive, int runs, const std::string& out, std::ui
   const std::string csv_name = std::string("paper_") + drive + ".csv";
   if (!writeFile(dir / "summary.json", summaryJson(res), &err) ||
       !writeFile(dir / csv_name, paperCsv(res), &err) ||
+      !writeFile(dir / ("runs_" + drive + ".csv"), runsCsv(res, seed), &err) ||
       !writeFile(dir / "health.json", healthJson(res), &err)) {
     std::fprintf(stderr, "odoerr paper: %s\n", err.c_str());
     return 1;
@@ -147,6 +166,11 @@ int main(int argc, char** argv) {
   int window = 1;
   std::string of_kind = "paper";
   int ml_every = 10;
+  std::string path = "circle";
+  double radius = 0;
+  double ml_reset = KMlConfig<double>{}.reset_log;
+  double ml_inflate = KMlConfig<double>{}.inflate;
+  double ml_inflate_cap = std::round(std::exp(KMlConfig<double>{}.max_inflate_log));
   paper->add_option("--drive", drive, "sync or diff")->check(CLI::IsMember({"sync", "diff"}));
   paper->add_option("--runs", runs, "Monte Carlo runs per start (> 0)")
       ->check(CLI::PositiveNumber);
@@ -161,7 +185,26 @@ int main(int argc, char** argv) {
                     "non-systematic estimator: paper (the Observable Filter) or ml (recursive maximum "
                     "likelihood of K from the AKF's innovations; docs/nonsystematic.md)")
       ->check(CLI::IsMember({"paper", "ml"}));
+  paper->add_option("--path", path,
+                    "circle (the paper's 5 m circle) or eight (a figure-eight of two 2 m lobes, turning both "
+                    "ways: excites delta_d)")
+      ->check(CLI::IsMember({"circle", "eight"}));
+  paper->add_option("--radius", radius,
+                    "the circle's radius or the eight's lobe radius in m (default 5 or 2; the 5 m circle "
+                    "touches the walls' midpoints)")
+      ->check(CLI::Range(0.5, 5.0));
   paper->add_option("--ml-every", ml_every, "ml: cycles between K steps (1..100)")->check(CLI::Range(1, 100));
+  paper->add_option("--ml-reset", ml_reset,
+                    "ml: restart the information and sensitivities when log K has moved this far (0: never)")
+      ->check(CLI::Range(0.0, 10.0))
+      ->capture_default_str();
+  paper->add_option("--ml-inflate", ml_inflate,
+                    "ml: run the AKF with K exp(C sigma_logK - 0.3) while K is uncertain (0: off)")
+      ->check(CLI::Range(0.0, 10.0))
+      ->capture_default_str();
+  paper->add_option("--ml-inflate-cap", ml_inflate_cap, "ml: the inflation's cap, a factor on K (1..1000)")
+      ->check(CLI::Range(1.0, 1000.0))
+      ->capture_default_str();
   paper->add_flag("--no-plots", no_plots, "skip the PNG figures");
 
   auto* diag = app.add_subcommand("diagnose", "does the model explain the measurements; which effect is missing");
@@ -224,7 +267,7 @@ int main(int argc, char** argv) {
   if (const int rc = commands.runParsed(); rc >= 0) return rc;
 
   if (paper->parsed()) {
-    return runPaper(drive, runs, out, seed, threads, !no_plots, pose_term, window, of_kind, ml_every);
+    return runPaper(drive, runs, out, seed, threads, !no_plots, pose_term, window, of_kind, ml_every, ml_reset, ml_inflate, ml_inflate_cap, path, radius);
   }
   if (replay->parsed()) {
     Odolog log;

@@ -13,11 +13,19 @@
 // Every `every` cycles a Gauss-Newton (natural-gradient) step in theta = log K:
 //   J <- lambda J + diag(K) I_block diag(K),   theta += clamp(J^-1 diag(K) g_block)
 // with lambda rising to 1 (Ljung's forgetting schedule), so the recursion tends to the
-// maximum of the whole record's likelihood. Fixed-size, allocation-free, Eigen only.
+// maximum of the whole record's likelihood. Two additions make it converge from far below
+// (docs/nonsystematic.md "Candidates"): J and the sensitivities restart when log K has moved
+// by more than reset_log since their last restart (stale information), and while K is
+// uncertain the AKF runs with an inflated K_f = K exp(inflate sigma_logK - offset) (capped),
+// so that it never over-trusts the odometry while K is too small; the step for K then
+// corrects the score at K_f by the information times (log K_f - log K).
+// Fixed-size, allocation-free, Eigen only.
 #pragma once
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <type_traits>
 
 #include <Eigen/Cholesky>
 
@@ -31,6 +39,25 @@ struct KMlConfig {
   S max_log_step = S(0.5);        ///< |delta log K| per step at most
   S lambda0 = S(0.9);             ///< initial forgetting factor
   S lambda_rate = S(0.98);        ///< lambda <- rate lambda + (1 - rate)  (towards 1)
+  /// Stale information: when log K has moved by more than reset_log (any component) since
+  /// the last restart, J and the sensitivities dP/dK, d xhat/dK are dropped and lambda
+  /// restarts at lambda0 (0: off). Gathered at a K far from the current one, they no longer
+  /// describe the likelihood there: the sensitivities of the systematic-parameter states,
+  /// built while the innovations were large, decay slowly and inflate the information, so
+  /// the steps stall and sigma is too small (measured: docs/nonsystematic.md).
+  S reset_log = S(1.5);
+  /// Decoupling the AKF's Q from the estimate while K is uncertain: the AKF runs with
+  /// K_f = K exp(min(inflate sigma_logK - inflate_offset, max_inflate_log)) when that exponent
+  /// is positive, else K (inflate 0: off); sigma_logK from J (max_inflate_log while J is not
+  /// positive definite). The score then comes at K_f; the step is taken for K with the
+  /// Gauss-Newton correction g(K) = g(K_f) + I (log K_f - log K).
+  S inflate = S(2);
+  /// log 30: 100 (the paper's starting factor) let one run of 400 lose the pose from above
+  /// on the figure-eight (Q 10^4 times too large at the start); 30 loses none (measured).
+  S max_inflate_log = S(3.4011974);
+  /// The offset ends the inflation once K is known to about inflate_offset / inflate in log
+  /// (15 %), so that K_f = K at the end of a drive.
+  S inflate_offset = S(0.3);
 };
 
 struct KMlCounters {
@@ -38,6 +65,7 @@ struct KMlCounters {
   std::uint32_t clipped = 0;   ///< steps limited by max_log_step
   std::uint32_t skipped = 0;   ///< steps refused (information not positive definite)
   std::uint32_t beams = 0;
+  std::uint32_t resets = 0;    ///< restarts of J and the sensitivities (reset_log)
 };
 
 template <typename ModelT>
@@ -61,6 +89,7 @@ class KMaxLikelihood {
 
   void init(const KVec& k0) {
     k_ = k0;
+    kf_ = k0;
     for (int i = 0; i < M; ++i) {
       dp_[i].setZero();
       xi_[i].setZero();
@@ -68,11 +97,16 @@ class KMaxLikelihood {
     g_.setZero();
     info_.setZero();
     j_.setZero();
+    k_ref_ = k0;
     lambda_ = cfg_.lambda0;
     cycles_ = 0;
+    updateFilterK();
   }
 
   const KVec& estimate() const { return k_; }
+  /// The K the AKF should predict with (K itself unless inflate > 0); the sensitivities and
+  /// the score are with respect to it. Updated at each step.
+  const KVec& filterK() const { return kf_; }
   /// Covariance of K from the accumulated information (J^-1 in log K, mapped to K).
   KMat covariance() const {
     KMat c = KMat::Zero();
@@ -83,6 +117,23 @@ class KMaxLikelihood {
     }
     const KMat ci = llt.solve(KMat::Identity());
     return k_.asDiagonal() * ci * k_.asDiagonal();
+  }
+  /// covariance() with the systematic parameters' uncertainty carried over where Q depends
+  /// on them. On the differential drive the heading noise is K_w (|dR| + |dL|) / (d delta_d)^2,
+  /// so the innovations fix K_w / delta_d^2, and J (at the estimated delta_d) misses the
+  /// share of delta_d: var(log K_w) gains 4 P_dd / delta_d^2 (x, p: the AKF's state and
+  /// covariance). The synchronous drive's Q does not depend on its parameters: covariance().
+  KMat covarianceWithSystematic(const StateVec& x, const StateMat& p) const {
+    KMat c = covariance();
+    if constexpr (std::is_same_v<Drive, DiffDrive<S>>) {
+      constexpr int kD = Model::kDriveOffset + Drive::kDeltaD;
+      const S dd = x[kD];
+      if (dd > S(0) && p(kD, kD) >= S(0)) {
+        const S var_log = S(4) * p(kD, kD) / (dd * dd);
+        c(Drive::kKw, Drive::kKw) += k_[Drive::kKw] * k_[Drive::kKw] * var_log;
+      }
+    }
+    return c;
   }
   const KMlCounters& counters() const { return counters_; }
   const KVec& blockScore() const { return g_; }
@@ -139,9 +190,14 @@ class KMaxLikelihood {
   bool endCycle() {
     if (++cycles_ < cfg_.every) return false;
     cycles_ = 0;
-    const KMat dk = k_.asDiagonal();
+    const KMat dk = kf_.asDiagonal();
     const KMat info_t = dk * info_ * dk;
-    const KVec g_t = dk * g_;
+    KVec g_t = dk * g_;
+    if (cfg_.inflate > S(0)) {
+      KVec dtheta;
+      for (int i = 0; i < M; ++i) dtheta[i] = std::log(kf_[i] / k_[i]);
+      g_t += info_t * dtheta;
+    }
     j_ = lambda_ * j_ + info_t;
     lambda_ = cfg_.lambda_rate * lambda_ + (S(1) - cfg_.lambda_rate);
     g_.setZero();
@@ -163,12 +219,42 @@ class KMaxLikelihood {
     }
     for (int i = 0; i < M; ++i) k_[i] *= std::exp(step[i]);
     ++counters_.steps;
+    if (cfg_.reset_log > S(0)) {
+      S moved = S(0);
+      for (int i = 0; i < M; ++i) moved = std::max(moved, std::abs(std::log(k_[i] / k_ref_[i])));
+      if (moved > cfg_.reset_log) {
+        j_.setZero();
+        lambda_ = cfg_.lambda0;
+        k_ref_ = k_;
+        for (int i = 0; i < M; ++i) {
+          dp_[i].setZero();
+          xi_[i].setZero();
+        }
+        ++counters_.resets;
+      }
+    }
+    updateFilterK();
     return true;
   }
 
  private:
+  void updateFilterK() {
+    kf_ = k_;
+    if (!(cfg_.inflate > S(0))) return;
+    Eigen::LLT<KMat> llt(j_);
+    const bool ok = llt.info() == Eigen::Success;
+    const KMat ci = ok ? KMat(llt.solve(KMat::Identity())) : KMat::Zero();
+    for (int i = 0; i < M; ++i) {
+      const S sig = ok && ci(i, i) > S(0) ? std::sqrt(ci(i, i)) : cfg_.max_inflate_log;
+      const S up = std::min(cfg_.inflate * sig - cfg_.inflate_offset, cfg_.max_inflate_log);
+      kf_[i] = up > S(0) ? k_[i] * std::exp(up) : k_[i];
+    }
+  }
+
   KMlConfig<S> cfg_{};
   KVec k_ = KVec::Ones();
+  KVec kf_ = KVec::Ones();
+  KVec k_ref_ = KVec::Ones();  ///< K when J was last restarted
   StateMat dp_[M];
   StateVec xi_[M];
   KVec g_ = KVec::Zero();

@@ -40,11 +40,17 @@ struct CaseResult {
   std::vector<double> pos_rms_m, heading_rms_rad, pos_sigma_mean_m, heading_sigma_mean_rad;
   std::uint64_t beams_used = 0, gated = 0, grazing = 0, no_return = 0, rejected = 0;
   std::uint64_t of_updates = 0, of_rejected = 0, of_clamped = 0;
+  /// Each run's last record: [run][param] value and reported sigma, then position and
+  /// heading error (runs.csv).
+  std::vector<std::vector<double>> final_values, final_sigmas;
+  std::vector<double> final_pos_err_m, final_heading_err_rad;
 };
 
 struct PaperResult {
   DriveKind drive = DriveKind::kSync;
   OfKind of = OfKind::kPaper;
+  bool figure_eight = false;  ///< the drive's path (SimConfig::figure_eight)
+  double radius_m = 0;        ///< its radius (the circle's, or each lobe's)
   int runs = 0;
   double wall_time_s = 0;
   std::vector<CaseResult> cases;  ///< small, large
@@ -62,6 +68,8 @@ PaperResult runPaperExperiment(const PaperOptions& opt);
 
 /// The summary.json document (shape fixed by the issue; checkpoints at 5, 10, 20, 30 m).
 std::string summaryJson(const PaperResult& r);
+/// Per-run CSV of each run's last record (value and reported sigma of every parameter).
+std::string runsCsv(const PaperResult& r, std::uint64_t seed0);
 /// Per-record CSV (the plot script's input).
 std::string paperCsv(const PaperResult& r);
 /// Counters of the filters over all runs (health.json).

@@ -38,6 +38,11 @@ struct SimConfig {
   double dt_s = 0.01;        ///< time per cycle (1 m/s), for logs
   double gain_radial = 0.25; ///< k1 (1/m^2)
   double gain_heading = 1.0; ///< k2 (1/m)
+  /// Figure-eight instead of the circle: two lobes of radius `radius`, centred at
+  /// (center_x, center_y +- radius), the upper one counter-clockwise and the lower one
+  /// clockwise, joined at (center_x, center_y) heading +x; the lobe changes after each lap
+  /// of 2 pi radius of travel. Turns both ways excite delta_d (the circle does not).
+  bool figure_eight = false;
   // laser
   LaserConfig<double> laser{};
   // encoders
@@ -87,9 +92,16 @@ class PaperSim {
     const double r = cfg_.room;
     const Segment<double> walls[4] = {{0, 0, r, 0}, {r, 0, r, r}, {r, r, 0, r}, {0, r, 0, 0}};
     for (const auto& w : walls) (void)map_.add(w);
-    truth_.x = cfg_.center_x + cfg_.radius * std::cos(cfg_.start_polar_rad);
-    truth_.y = cfg_.center_y + cfg_.radius * std::sin(cfg_.start_polar_rad);
-    truth_.theta = wrapAngle(cfg_.start_polar_rad + kPi<double> / 2);
+    if (cfg_.figure_eight) {
+      truth_.x = cfg_.center_x;
+      truth_.y = cfg_.center_y;
+      truth_.theta = 0.0;
+      lap_cycles_ = static_cast<long>(std::llround(2 * kPi<double> * cfg_.radius / cfg_.step_m));
+    } else {
+      truth_.x = cfg_.center_x + cfg_.radius * std::cos(cfg_.start_polar_rad);
+      truth_.y = cfg_.center_y + cfg_.radius * std::sin(cfg_.start_polar_rad);
+      truth_.theta = wrapAngle(cfg_.start_polar_rad + kPi<double> / 2);
+    }
     if constexpr (!kSync) drive_.wheelbase = cfg_.wheelbase_m;
     std::normal_distribution<double> n01(0.0, 1.0);
     init_est_.x = truth_.x + cfg_.init_sigma_xy * n01(rng_);
@@ -166,6 +178,10 @@ class PaperSim {
     const Increment<double> inc = truth_drive.increment(out.input, trueParams(), nu);
     truth_ = applyIncrement(truth_, inc);
     ++k_;
+    if (cfg_.figure_eight && ++lobe_cycles_ >= lap_cycles_) {
+      lobe_cycles_ = 0;
+      lower_lobe_ = !lower_lobe_;
+    }
     out.t = k_ * cfg_.dt_s;
     out.truth = truth_;
     scan(truth_, out.ranges.data());
@@ -193,6 +209,16 @@ class PaperSim {
 
  private:
   double curvatureCommand(const Pose<double>& est) const {
+    if (cfg_.figure_eight) {
+      // The lobe's circle; clockwise is the counter-clockwise law mirrored.
+      const double sgn = lower_lobe_ ? -1.0 : 1.0;
+      const double dx = est.x - cfg_.center_x;
+      const double dy = est.y - (cfg_.center_y + sgn * cfg_.radius);
+      const double e_r = std::hypot(dx, dy) - cfg_.radius;
+      const double tangent = std::atan2(dy, dx) + sgn * kPi<double> / 2;
+      const double e_th = wrapAngle(est.theta - tangent);
+      return sgn * (1.0 / cfg_.radius + cfg_.gain_radial * e_r) - cfg_.gain_heading * e_th;
+    }
     const double dx = est.x - cfg_.center_x;
     const double dy = est.y - cfg_.center_y;
     const double e_r = std::hypot(dx, dy) - cfg_.radius;
@@ -211,6 +237,9 @@ class PaperSim {
   double pos_b_ = 0.0;
   EncoderSample counts_{};
   long k_ = 0;
+  long lap_cycles_ = 0;   ///< figure-eight: cycles per lobe
+  long lobe_cycles_ = 0;  ///< figure-eight: cycles on the current lobe
+  bool lower_lobe_ = false;
 };
 
 }  // namespace odoerr::sim

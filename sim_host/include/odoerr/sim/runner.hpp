@@ -26,7 +26,7 @@ enum class OfKind { kPaper, kMl };
 inline const char* toString(OfKind k) { return k == OfKind::kPaper ? "paper" : "ml"; }
 
 /// The AKF driven by KMaxLikelihood instead of the OF: the same AKF, map and laser as `est`
-/// (copied), the same cycle (predict with the current K, fuse the scan), with the
+/// (copied), the same cycle (predict with the estimator's filter K, fuse the scan), with the
 /// likelihood's sensitivities carried beside it. Host side: each fused beam's measurement
 /// row is recomputed by a second ray cast at the state before the beam (the core's cycle
 /// does not hand it out).
@@ -45,7 +45,7 @@ class MlDriver {
 
   void cycle(const typename Model::Input& u, const S* ranges) {
     ml_.predict(akf_.model(), akf_.state(), u);
-    if (akf_.predict(u, ml_.estimate()) != Status::kOk) return;
+    if (akf_.predict(u, ml_.filterK()) != Status::kOk) return;
     if (ranges != nullptr) {
       typename AkfT::StateMat p_pre = akf_.covariance();
       typename AkfT::StateVec x_pre = akf_.state();
@@ -153,7 +153,7 @@ Trace runDrive(const SimConfig& cfg, std::uint64_t seed, NonSysStart start, cons
     const auto& x = akfNow().state();
     const auto& p = akfNow().covariance();
     const auto k = use_ml ? ml.ml().estimate() : est.of().estimate();
-    const auto pk = use_ml ? ml.ml().covariance() : est.of().covariance();
+    const auto pk = use_ml ? ml.ml().covarianceWithSystematic(x, p) : est.of().covariance();
     tr.distance_m.push_back(dist);
     const std::size_t base = tr.values.size();
     tr.values.resize(base + L::kSize);
