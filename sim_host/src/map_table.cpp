@@ -55,7 +55,8 @@ std::string mapTableSource(const HostMap<float>& map, const std::string& symbol,
   s += "extern const odoerr::MapTables<float> " + symbol + ";\n";
   s += "const odoerr::MapTables<float> " + symbol + " = {kWalls, " + std::to_string(map.size()) + ", {";
   s += f32(g.x0) + ", " + f32(g.y0) + ", " + f32(g.cell) + ", " + f32(g.inv_cell) + ", " + std::to_string(g.nx) +
-       ", " + std::to_string(g.ny) + "}, ";
+       ", " + std::to_string(g.ny) + ", " +
+       f32(g.in_x0) + ", " + f32(g.in_y0) + ", " + f32(g.in_x1) + ", " + f32(g.in_y1) + "}, ";
   s += grid ? "kCellStart, kCellItems};\n" : "nullptr, nullptr};\n";
   return s;
 }

@@ -69,7 +69,19 @@ template <typename S>
 struct GridSpec {
   S x0 = S(0), y0 = S(0), cell = S(1), inv_cell = S(1);
   int nx = 0, ny = 0;
+  /// The box inside the fence (setFenceBox): a ray from there walks with no bounds test.
+  S in_x0 = S(0), in_y0 = S(0), in_x1 = S(0), in_y1 = S(0);
 };
+
+/// Sets g's box inside the fence: half a cell in from the grid's edge (see gridFence).
+template <typename S>
+inline void setFenceBox(GridSpec<S>* g) {
+  const S h = S(0.5) * g->cell;
+  g->in_x0 = g->x0 + h;
+  g->in_y0 = g->y0 + h;
+  g->in_x1 = g->x0 + S(g->nx) * g->cell - h;
+  g->in_y1 = g->y0 + S(g->ny) * g->cell - h;
+}
 
 /// The map's tables, not owned. cell_start has nx * ny + 1 entries. With a grid, walls
 /// holds n_walls + 4 entries: the map's walls, then the grid's fence.
@@ -84,12 +96,11 @@ struct MapTables {
 
 namespace map_detail {
 
-/// The nearest hit so far along a ray, as range = rn / den (den > 0), no division per wall.
-/// It starts at the ray's far end (max_range, no wall): a hit must be nearer than that.
+/// The nearest hit so far along a ray: its range r (one division per wall taken, none per
+/// wall tested). It starts at the ray's far end (max_range, no wall): a hit must be nearer.
 template <typename S>
 struct Nearest {
-  S rn;
-  S den = S(1);
+  S r;
   int wall = -1;
 };
 
@@ -117,10 +128,9 @@ inline void testWall(const WallRec<S>& w, int index, S px, S py, S ux, S uy, S m
     return;  // parallel
   }
   if (!(rn > min_range * den)) return;
-  if (rn * best->den >= best->rn * den) return;  // not nearer
+  if (rn >= best->r * den) return;  // not nearer
   best->wall = index;
-  best->rn = rn;
-  best->den = den;
+  best->r = rn / den;
 }
 
 /// Entry distance of the ray into [lo, hi] along one axis, and exit; false when the ray
@@ -152,7 +162,7 @@ inline RayHit<S> finishHit(const WallRec<S>* walls, const Nearest<S>& best, S ux
   const WallRec<S>& wr = walls[best.wall];
   hit.hit = true;
   hit.wall = best.wall;
-  hit.range = best.rn / best.den;
+  hit.range = best.r;
   hit.nx = wr.nx;
   hit.ny = wr.ny;
   hit.n_dot_u = wr.nx * ux + wr.ny * uy;
@@ -176,7 +186,7 @@ namespace map_detail {
 /// if nothing else, so the walk needs no other end; otherwise it ends at `far`, short of
 /// the grid's edge, and ignores the fence.
 template <typename S, bool kFenced>
-RayHit<S> walkGrid(const MapTables<S>& m, S px, S py, S ux, S uy, S min_range, S far, S t0) {
+ODOERR_ALWAYS_INLINE RayHit<S> walkGrid(const MapTables<S>& m, S px, S py, S ux, S uy, S min_range, S far, S t0) {
   const GridSpec<S>& g = m.grid;
   Nearest<S> best{far};
   // The start in cell units, its cell, and its place within the cell (0..1).
@@ -233,11 +243,11 @@ RayHit<S> walkGrid(const MapTables<S>& m, S px, S py, S ux, S uy, S min_range, S
     // The nearest hit so far (or the far end) lies in this cell or before it: no later
     // cell can hold a nearer one (every wall is listed in every cell it touches).
     if (t_max_x < t_max_y) {
-      if (best.rn <= t_max_x * best.den) break;
+      if (best.r <= t_max_x) break;
       c += step_x;
       t_max_x += dt_x;
     } else {
-      if (best.rn <= t_max_y * best.den) break;
+      if (best.r <= t_max_y) break;
       c += step_y;
       t_max_y += dt_y;
     }
@@ -259,31 +269,42 @@ inline void gridFence(const GridSpec<S>& g, WallRec<S> fence[4]) {
   for (int k = 0; k < 4; ++k) (void)makeWallRec(sides[k], &fence[k]);
 }
 
-/// The same through the grid index of `m` (m.grid.nx > 0): the ray walks the cells.
+namespace map_detail {
+
+/// castGrid from outside the fence (a robot off its map): clip the ray to the grid's box,
+/// entering at t0 and leaving at t1, and end the walk half a cell before it leaves (the
+/// margin holds no wall of the map).
 template <typename S>
-RayHit<S> castGrid(const MapTables<S>& m, S px, S py, S ux, S uy, S min_range, S max_range) {
+ODOERR_NOINLINE RayHit<S> castGridOutside(const MapTables<S>& m, S px, S py, S ux, S uy, S min_range,
+                                          S max_range) {
   const GridSpec<S>& g = m.grid;
   const S h = S(0.5) * g.cell;
   const S x1 = g.x0 + S(g.nx) * g.cell, y1 = g.y0 + S(g.ny) * g.cell;
-  if (px > g.x0 + h && px < x1 - h && py > g.y0 + h && py < y1 - h) {
-    return map_detail::walkGrid<S, true>(m, px, py, ux, uy, min_range, max_range, S(0));
-  }
-  // Outside the fence (a robot off its map): clip the ray to the grid's box, entering at
-  // t0 and leaving at t1, and end the walk half a cell before it leaves (the margin holds
-  // no wall of the map).
   S t0 = S(0);
   S t1 = max_range;
-  if (!map_detail::slab(px, ux, g.x0, x1, &t0, &t1) || !map_detail::slab(py, uy, g.y0, y1, &t0, &t1)) {
+  if (!slab(px, ux, g.x0, x1, &t0, &t1) || !slab(py, uy, g.y0, y1, &t0, &t1)) {
     return RayHit<S>{};
   }
   const S far = t1 < max_range ? t1 - h : max_range;
-  return map_detail::walkGrid<S, false>(m, px, py, ux, uy, min_range, far, t0);
+  return walkGrid<S, false>(m, px, py, ux, uy, min_range, far, t0);
+}
+
+}  // namespace map_detail
+
+/// The same through the grid index of `m` (m.grid.nx > 0): the ray walks the cells.
+template <typename S>
+ODOERR_ALWAYS_INLINE RayHit<S> castGrid(const MapTables<S>& m, S px, S py, S ux, S uy, S min_range, S max_range) {
+  const GridSpec<S>& g = m.grid;
+  if (px > g.in_x0 && px < g.in_x1 && py > g.in_y0 && py < g.in_y1) {
+    return map_detail::walkGrid<S, true>(m, px, py, ux, uy, min_range, max_range, S(0));
+  }
+  return map_detail::castGridOutside(m, px, py, ux, uy, min_range, max_range);
 }
 
 /// Nearest intersection of the ray p + r u (u a unit vector), min_range < r <= max_range,
 /// with the walls of `m` (through its grid when it has one).
 template <typename S>
-inline RayHit<S> castTables(const MapTables<S>& m, S px, S py, S ux, S uy, S min_range, S max_range) {
+ODOERR_ALWAYS_INLINE RayHit<S> castTables(const MapTables<S>& m, S px, S py, S ux, S uy, S min_range, S max_range) {
   if (m.grid.nx == 0) return castEveryWall(m.walls, m.n_walls, px, py, ux, uy, min_range, max_range);
   return castGrid(m, px, py, ux, uy, min_range, max_range);
 }
@@ -335,6 +356,7 @@ inline IndexStatus gridFor(const WallRec<S>* walls, int n, S cell, int max_cells
   g->ny = static_cast<int>(nyf);
   g->x0 = lo_x - cell;
   g->y0 = lo_y - cell;
+  setFenceBox(g);
   return IndexStatus::kOk;
 }
 
@@ -406,7 +428,7 @@ class MapView {
     return castDir(px, py, std::cos(angle), std::sin(angle), min_range);
   }
   /// The same with the unit direction (ux, uy) given; hits beyond max_range are not hits.
-  RayHit<S> castDir(S px, S py, S ux, S uy, S min_range = S(1e-6), S max_range = S(1e30)) const {
+  ODOERR_ALWAYS_INLINE RayHit<S> castDir(S px, S py, S ux, S uy, S min_range = S(1e-6), S max_range = S(1e30)) const {
     return castTables(t_, px, py, ux, uy, min_range, max_range);
   }
 
@@ -477,7 +499,7 @@ class SegmentMap {
   RayHit<S> cast(S px, S py, S angle, S min_range = S(1e-6)) const {
     return castDir(px, py, std::cos(angle), std::sin(angle), min_range);
   }
-  RayHit<S> castDir(S px, S py, S ux, S uy, S min_range = S(1e-6), S max_range = S(1e30)) const {
+  ODOERR_ALWAYS_INLINE RayHit<S> castDir(S px, S py, S ux, S uy, S min_range = S(1e-6), S max_range = S(1e30)) const {
     if constexpr (MaxCells == 0) {
       return castEveryWall(walls_, count_, px, py, ux, uy, min_range, max_range);
     } else {
