@@ -103,15 +103,24 @@ TEST(MapIndex, TablesAreCompleteAndOrdered) {
   std::string err;
   ASSERT_TRUE(m.build(walls, 0.5, &err)) << err;
   const auto& g = m.grid();
-  const auto& st = m.cellStart();
+  const auto& cells = m.cells();
   const auto& it = m.cellItems();
-  ASSERT_EQ(st.size(), std::size_t(g.nx * g.ny + 1));
-  EXPECT_EQ(st.front(), 0);
-  EXPECT_EQ(st.back(), it.size());
+  ASSERT_EQ(cells.size(), std::size_t(g.nx * g.ny));
+  // The cells' lists tile the items in cell order, with no gap and no overlap; an empty
+  // cell is 0.
+  std::size_t next = 0;
   for (int c = 0; c < g.nx * g.ny; ++c) {
-    ASSERT_LE(st[c], st[c + 1]);
-    for (int k = st[c] + 1; k < st[c + 1]; ++k) EXPECT_LT(it[k - 1], it[k]) << "cell " << c;  // wall order
+    if (cellCount(cells[c]) == 0) {
+      EXPECT_EQ(cells[c], 0u) << "cell " << c;
+      continue;
+    }
+    ASSERT_EQ(std::size_t(cellStart(cells[c])), next) << "cell " << c;
+    next += std::size_t(cellCount(cells[c]));
+    for (int k = cellStart(cells[c]) + 1; k < cellStart(cells[c]) + cellCount(cells[c]); ++k) {
+      EXPECT_LT(it[k - 1], it[k]) << "cell " << c;  // wall order
+    }
   }
+  EXPECT_EQ(next, it.size());
   // Every wall is listed in the cells of its two end points and its mid point.
   for (std::size_t i = 0; i < walls.size(); ++i) {
     for (double f : {0.0, 0.5, 1.0}) {
@@ -119,7 +128,7 @@ TEST(MapIndex, TablesAreCompleteAndOrdered) {
       const int ix = int((x - g.x0) / g.cell), iy = int((y - g.y0) / g.cell);
       const int c = iy * g.nx + ix;
       bool found = false;
-      for (int k = st[c]; k < st[c + 1]; ++k) found = found || it[k] == i;
+      for (int k = cellStart(cells[c]); k < cellStart(cells[c]) + cellCount(cells[c]); ++k) found = found || it[k] == i;
       EXPECT_TRUE(found) << "wall " << i << " at fraction " << f << " missing from cell " << c;
     }
   }
@@ -161,8 +170,8 @@ TEST(MapIndex, OwnedIndexAndConstantTablesCastAlike) {
   const MapTables<float> t = owned.tables();
   const int cells = t.grid.nx * t.grid.ny;
   const std::vector<WallRec<float>> w(t.walls, t.walls + t.n_walls);
-  const std::vector<MapIndex> st(t.cell_start, t.cell_start + cells + 1);
-  const std::vector<MapIndex> it(t.cell_items, t.cell_items + st.back());
+  const std::vector<MapCell> st(t.cells, t.cells + cells);
+  const std::vector<MapIndex> it(t.cell_items, t.cell_items + owned.indexItems());
   const MapView<float> view(MapTables<float>{w.data(), int(w.size()), t.grid, st.data(), it.data()});
   SegmentMap<float, 512> brute;
   for (const auto& s : walls) ASSERT_TRUE(brute.add({float(s.x1), float(s.y1), float(s.x2), float(s.y2)}));

@@ -41,8 +41,9 @@ std::string mapTableSource(const HostMap<float>& map, const std::string& symbol,
   s += "};\n";
   const bool grid = g.nx > 0;
   if (grid) {
-    s += "\nconst odoerr::MapIndex kCellStart[] = {\n    ";
-    appendList(&s, map.cellStart());
+    s += "\n// Each cell's first item (high 16 bits) and item count (low 16 bits); 0: empty.\n";
+    s += "const odoerr::MapCell kCells[] = {\n    ";
+    appendList(&s, map.cells());
     s += "};\n\nconst odoerr::MapIndex kCellItems[] = {\n    ";
     if (map.cellItems().empty()) {
       s += "0";
@@ -57,12 +58,12 @@ std::string mapTableSource(const HostMap<float>& map, const std::string& symbol,
   s += f32(g.x0) + ", " + f32(g.y0) + ", " + f32(g.cell) + ", " + f32(g.inv_cell) + ", " + std::to_string(g.nx) +
        ", " + std::to_string(g.ny) + ", " +
        f32(g.in_x0) + ", " + f32(g.in_y0) + ", " + f32(g.in_x1) + ", " + f32(g.in_y1) + "}, ";
-  s += grid ? "kCellStart, kCellItems};\n" : "nullptr, nullptr};\n";
+  s += grid ? "kCells, kCellItems};\n" : "nullptr, nullptr};\n";
   return s;
 }
 
 std::size_t mapTableBytes(const HostMap<float>& map) {
-  return map.walls().size() * sizeof(WallRec<float>) + map.cellStart().size() * sizeof(MapIndex) +
+  return map.walls().size() * sizeof(WallRec<float>) + map.cells().size() * sizeof(MapCell) +
          map.cellItems().size() * sizeof(MapIndex) + sizeof(MapTables<float>);
 }
 

@@ -2,8 +2,8 @@
 // (filter) and simulates it (sim_host).
 //
 // The map's tables are plain arrays: the walls, and optionally a uniform grid over them
-// whose cells list the walls that touch them (compressed rows: cell c owns the items
-// cell_start[c] .. cell_start[c + 1] - 1). A ray walks the grid cell by cell (Amanatides &
+// whose cells list the walls that touch them (cell c owns cellCount(cells[c]) items from
+// cellStart(cells[c]) on; an empty cell is 0). A ray walks the grid cell by cell (Amanatides &
 // Woo) and stops in the first cell that holds its nearest hit, so a beam tests only the
 // walls near its own path, whatever the size of the map. Without a grid every wall is
 // tested (small maps, where that is cheaper).
@@ -63,6 +63,13 @@ inline bool makeWallRec(const Segment<S>& w, WallRec<S>* out) {
 using MapIndex = std::uint16_t;
 constexpr int kMaxMapIndex = 65535;
 
+/// One grid cell: where its walls start in the item list (high 16 bits) and how many
+/// there are (low 16 bits). An empty cell is 0, so the walk tells it by one load
+/// (measured on the Cortex-M4F, docs/performance.md).
+using MapCell = std::uint32_t;
+constexpr int cellStart(MapCell w) { return static_cast<int>(w >> 16); }
+constexpr int cellCount(MapCell w) { return static_cast<int>(w & 0xFFFFu); }
+
 /// A uniform grid over [x0, x0 + nx cell) x [y0, y0 + ny cell). nx == 0: no grid. The
 /// walls lie at least one cell inside its edge; the tables add a fence (gridFence).
 template <typename S>
@@ -83,14 +90,14 @@ inline void setFenceBox(GridSpec<S>* g) {
   g->in_y1 = g->y0 + S(g->ny) * g->cell - h;
 }
 
-/// The map's tables, not owned. cell_start has nx * ny + 1 entries. With a grid, walls
+/// The map's tables, not owned. cells has nx * ny entries. With a grid, walls
 /// holds n_walls + 4 entries: the map's walls, then the grid's fence.
 template <typename S>
 struct MapTables {
   const WallRec<S>* walls = nullptr;
   int n_walls = 0;
   GridSpec<S> grid{};
-  const MapIndex* cell_start = nullptr;
+  const MapCell* cells = nullptr;
   const MapIndex* cell_items = nullptr;
 };
 
@@ -184,14 +191,23 @@ namespace map_detail {
 
 /// The grid walk of castGrid. kFenced: the ray starts inside the fence, which it must hit
 /// if nothing else, so the walk needs no other end; otherwise it ends at `far`, short of
-/// the grid's edge, and ignores the fence.
+/// the grid's edge, and ignores the fence. Returns the nearest wall's index (-1: none) and
+/// its range in *range. Out of line, so that its loop has the registers to itself (measured
+/// on the Cortex-M4F: inlined into the filter's update, the loop spilled).
 template <typename S, bool kFenced>
-ODOERR_ALWAYS_INLINE RayHit<S> walkGrid(const MapTables<S>& m, S px, S py, S ux, S uy, S min_range, S far, S t0) {
+ODOERR_NOINLINE int walkGrid(const MapTables<S>& m, S px, S py, S ux, S uy, S min_range, S far, S t0, S* range) {
   const GridSpec<S>& g = m.grid;
   Nearest<S> best{far};
-  // The start in cell units, its cell, and its place within the cell (0..1).
-  const S gx = (px + t0 * ux - g.x0) * g.inv_cell;
-  const S gy = (py + t0 * uy - g.y0) * g.inv_cell;
+  // The start in cell units, its cell, and its place within the cell (0..1). (Inside the
+  // fence the walk starts at p: t0 is 0.)
+  S sx = px;
+  S sy = py;
+  if constexpr (!kFenced) {
+    sx += t0 * ux;
+    sy += t0 * uy;
+  }
+  const S gx = (sx - g.x0) * g.inv_cell;
+  const S gy = (sy - g.y0) * g.inv_cell;
   int ix = static_cast<int>(gx);
   int iy = static_cast<int>(gy);
   if constexpr (!kFenced) {  // inside the fence the start is inside the grid
@@ -201,15 +217,18 @@ ODOERR_ALWAYS_INLINE RayHit<S> walkGrid(const MapTables<S>& m, S px, S py, S ux,
   const S fx = gx - S(ix);
   const S fy = gy - S(iy);
   // Distances along the ray to the next vertical / horizontal cell border, and between
-  // borders (infinite along an axis the ray does not move on).
+  // borders (infinite along an axis the ray does not move on), and the cell steps.
   const S big = S(1e30);
   S t_max_x = big;
   S t_max_y = big;
   S dt_x = big;
   S dt_y = big;
+  int step_x = -1;
+  int step_y = -g.nx;
   if (ux > S(0)) {
     dt_x = g.cell / ux;
     t_max_x = dt_x * (S(1) - fx);
+    step_x = 1;
   } else if (ux < S(0)) {
     dt_x = -g.cell / ux;
     t_max_x = dt_x * fx;
@@ -217,6 +236,7 @@ ODOERR_ALWAYS_INLINE RayHit<S> walkGrid(const MapTables<S>& m, S px, S py, S ux,
   if (uy > S(0)) {
     dt_y = g.cell / uy;
     t_max_y = dt_y * (S(1) - fy);
+    step_y = g.nx;
   } else if (uy < S(0)) {
     dt_y = -g.cell / uy;
     t_max_y = dt_y * fy;
@@ -224,22 +244,48 @@ ODOERR_ALWAYS_INLINE RayHit<S> walkGrid(const MapTables<S>& m, S px, S py, S ux,
   if constexpr (!kFenced) {
     // The borders' distances are measured from p, as the hits' are: the walk starts at t0.
     // (Measured from the entry point, the walk went on t0 past `far` and out of the grid:
-    // cell_start read before its first element, found by AddressSanitizer.)
+    // the cell table read before its first element, found by AddressSanitizer.)
     t_max_x += t0;
     t_max_y += t0;
   }
-  const int step_x = ux > S(0) ? 1 : -1;
-  const int step_y = uy > S(0) ? g.nx : -g.nx;
   int c = iy * g.nx + ix;
   int last = -1;  // the wall tested last: a wall crossing from one cell into the next is not tested twice
-  for (;;) {
-    const int end = m.cell_start[c + 1];
-    for (int k = m.cell_start[c]; k < end; ++k) {
-      const int i = m.cell_items[k];
+  const MapCell* const cells = m.cells;
+  const MapIndex* const items = m.cell_items;
+  const WallRec<S>* const walls = m.walls;
+  // Tests the walls listed in a cell.
+  auto testCell = [&](MapCell w) {
+    const MapIndex* it = items + cellStart(w);
+    const MapIndex* const end = it + cellCount(w);
+    for (; it != end; ++it) {
+      const int i = *it;
       if (i == last || (!kFenced && i >= m.n_walls)) continue;
       last = i;
-      testWall(m.walls[i], i, px, py, ux, uy, min_range, &best);
+      testWall(walls[i], i, px, py, ux, uy, min_range, &best);
     }
+  };
+  if constexpr (kFenced) {
+    // Until a wall is hit the walk needs no end test: the fence, which every ray from
+    // inside it hits, ends it. The nearest hit is then sought at any range; one past the
+    // far end is no hit (below).
+    best.r = S(1e30);
+    for (;;) {
+      const MapCell w = cells[c];
+      if (w != 0) {
+        testCell(w);
+        if (best.wall >= 0) break;
+      }
+      if (t_max_x < t_max_y) {
+        c += step_x;
+        t_max_x += dt_x;
+      } else {
+        c += step_y;
+        t_max_y += dt_y;
+      }
+    }
+  }
+  for (;;) {
+    if constexpr (!kFenced) testCell(cells[c]);
     // The nearest hit so far (or the far end) lies in this cell or before it: no later
     // cell can hold a nearer one (every wall is listed in every cell it touches).
     if (t_max_x < t_max_y) {
@@ -251,9 +297,11 @@ ODOERR_ALWAYS_INLINE RayHit<S> walkGrid(const MapTables<S>& m, S px, S py, S ux,
       c += step_y;
       t_max_y += dt_y;
     }
+    if constexpr (kFenced) testCell(cells[c]);
   }
-  if (best.wall >= m.n_walls) best.wall = -1;  // the fence: nothing within range
-  return finishHit(m.walls, best, ux, uy);
+  *range = best.r;
+  // The fence, or past the far end: nothing within range.
+  return best.wall >= m.n_walls || best.r > far ? -1 : best.wall;
 }
 
 }  // namespace map_detail
@@ -286,7 +334,9 @@ ODOERR_NOINLINE RayHit<S> castGridOutside(const MapTables<S>& m, S px, S py, S u
     return RayHit<S>{};
   }
   const S far = t1 < max_range ? t1 - h : max_range;
-  return walkGrid<S, false>(m, px, py, ux, uy, min_range, far, t0);
+  Nearest<S> best{far};
+  best.wall = walkGrid<S, false>(m, px, py, ux, uy, min_range, far, t0, &best.r);
+  return finishHit(m.walls, best, ux, uy);
 }
 
 }  // namespace map_detail
@@ -296,7 +346,9 @@ template <typename S>
 ODOERR_ALWAYS_INLINE RayHit<S> castGrid(const MapTables<S>& m, S px, S py, S ux, S uy, S min_range, S max_range) {
   const GridSpec<S>& g = m.grid;
   if (px > g.in_x0 && px < g.in_x1 && py > g.in_y0 && py < g.in_y1) {
-    return map_detail::walkGrid<S, true>(m, px, py, ux, uy, min_range, max_range, S(0));
+    map_detail::Nearest<S> best{max_range};
+    best.wall = map_detail::walkGrid<S, true>(m, px, py, ux, uy, min_range, max_range, S(0), &best.r);
+    return map_detail::finishHit(m.walls, best, ux, uy);
   }
   return map_detail::castGridOutside(m, px, py, ux, uy, min_range, max_range);
 }
@@ -360,16 +412,16 @@ inline IndexStatus gridFor(const WallRec<S>* walls, int n, S cell, int max_cells
   return IndexStatus::kOk;
 }
 
-/// Fills the grid's compressed rows: cell_start (nx * ny + 1 entries) and cell_items (at
-/// most max_items), each cell's walls in index order. Each wall visits only the cells of
-/// its bounding box; two passes (count, then fill), no heap.
+/// Fills the grid's tables: cells (nx * ny entries, see MapCell) and cell_items (at most
+/// max_items), each cell's walls in index order. Each wall visits only the cells of its
+/// bounding box; two passes (count, then fill), no heap.
 template <typename S>
-inline IndexStatus fillGrid(const WallRec<S>* walls, int n, const GridSpec<S>& g, MapIndex* cell_start,
+inline IndexStatus fillGrid(const WallRec<S>* walls, int n, const GridSpec<S>& g, MapCell* cell_tab,
                             MapIndex* cell_items, int max_items, int* items_used) {
   const int cells = g.nx * g.ny;
-  // The first pass counts cell c's walls in cell_start[c + 1]; the second fills through
-  // cell_start[c] as the cursor; a final shift restores the starts.
-  for (int c = 0; c <= cells; ++c) cell_start[c] = 0;
+  // The first pass counts cell c's walls in its low half; then each cell gets its start
+  // and a count of 0, which the second pass counts up again as it fills.
+  for (int c = 0; c < cells; ++c) cell_tab[c] = 0;
   auto cellRange = [&g](S a, S b, S origin, int n_cells, int* lo, int* hi) {
     const S mn = a < b ? a : b, mx = a < b ? b : a;
     *lo = static_cast<int>((mn - origin) * g.inv_cell) - 1;
@@ -391,20 +443,23 @@ inline IndexStatus fillGrid(const WallRec<S>* walls, int n, const GridSpec<S>& g
           if (pass == 0) {
             if (total >= max_items || total >= kMaxMapIndex) return IndexStatus::kTooManyItems;
             ++total;
-            ++cell_start[c + 1];
+            ++cell_tab[c];
           } else {
-            cell_items[cell_start[c]++] = static_cast<MapIndex>(i);
+            cell_items[cellStart(cell_tab[c]) + cellCount(cell_tab[c])] = static_cast<MapIndex>(i);
+            ++cell_tab[c];
           }
         }
       }
     }
-    if (pass == 0) {  // counts to starts: cell_start[c] is now cell c's start, the fill cursor
-      for (int c = 0; c < cells; ++c) cell_start[c + 1] = static_cast<MapIndex>(cell_start[c + 1] + cell_start[c]);
+    if (pass == 0) {  // counts to starts (an empty cell stays 0)
+      MapCell start = 0;
+      for (int c = 0; c < cells; ++c) {
+        const MapCell count = cell_tab[c];
+        cell_tab[c] = count != 0 ? start << 16 : 0;
+        start += count;
+      }
     }
   }
-  // The cursors ended at each cell's end, which is the next cell's start.
-  for (int c = cells; c > 0; --c) cell_start[c] = cell_start[c - 1];
-  cell_start[0] = 0;
   *items_used = total;
   return IndexStatus::kOk;
 }
@@ -454,9 +509,10 @@ class SegmentMap {
     for (int i = 0; i < count_ + (grid_.nx > 0 ? 4 : 0); ++i) walls_[i] = o.walls_[i];
     if (grid_.nx > 0) {
       const int cells = grid_.nx * grid_.ny;
-      for (int c = 0; c <= cells; ++c) start_[c] = o.start_[c];
-      for (int k = 0; k < o.start_[cells]; ++k) items_[k] = o.items_[k];
+      for (int c = 0; c < cells; ++c) cells_[c] = o.cells_[c];
+      for (int k = 0; k < o.items_used_; ++k) items_[k] = o.items_[k];
     }
+    items_used_ = o.items_used_;
     return *this;
   }
 
@@ -478,23 +534,24 @@ class SegmentMap {
       return IndexStatus::kTooManyCells;
     } else {
       GridSpec<S> g;
-      IndexStatus st = gridFor(walls_, count_, cell, MaxCells - 1, &g);
+      IndexStatus st = gridFor(walls_, count_, cell, MaxCells, &g);
       if (st != IndexStatus::kOk) return st;
       gridFence(g, walls_ + count_);
       int used = 0;
-      st = fillGrid(walls_, count_ + 4, g, start_, items_, MaxItems, &used);
+      st = fillGrid(walls_, count_ + 4, g, cells_, items_, MaxItems, &used);
       if (st != IndexStatus::kOk) return st;
       grid_ = g;
+      items_used_ = used;
       return IndexStatus::kOk;
     }
   }
   /// The items the index holds (0 without an index).
-  int indexItems() const { return grid_.nx > 0 ? start_[grid_.nx * grid_.ny] : 0; }
+  int indexItems() const { return grid_.nx > 0 ? items_used_ : 0; }
 
   int size() const { return count_; }
   Segment<S> wall(int i) const { return view().wall(i); }
   MapView<S> view() const { return MapView<S>(tables()); }
-  MapTables<S> tables() const { return MapTables<S>{walls_, count_, grid_, start_, items_}; }
+  MapTables<S> tables() const { return MapTables<S>{walls_, count_, grid_, cells_, items_}; }
 
   RayHit<S> cast(S px, S py, S angle, S min_range = S(1e-6)) const {
     return castDir(px, py, std::cos(angle), std::sin(angle), min_range);
@@ -513,8 +570,9 @@ class SegmentMap {
   WallRec<S> walls_[MaxWalls + 4]{};  // + the grid's fence
   int count_ = 0;
   GridSpec<S> grid_{};
-  MapIndex start_[kCells]{};
+  MapCell cells_[kCells]{};
   MapIndex items_[kItems]{};
+  int items_used_ = 0;
 };
 
 }  // namespace odoerr

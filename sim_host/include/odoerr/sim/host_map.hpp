@@ -30,7 +30,7 @@ class HostMap {
   /// when a wall is degenerate or not finite, or the index does not fit its index type.
   bool build(const std::vector<OdologWall>& walls, double cell_m, std::string* error) {
     walls_.clear();
-    start_.clear();
+    cells_.clear();
     items_.clear();
     grid_ = GridSpec<S>{};
     if (walls.size() + 4 > std::size_t(kMaxMapIndex)) {
@@ -55,13 +55,13 @@ class HostMap {
                  std::to_string(kMaxCells) + " cells";
         return false;
       }
-      start_.assign(std::size_t(g.nx) * std::size_t(g.ny) + 1, 0);
+      cells_.assign(std::size_t(g.nx) * std::size_t(g.ny), 0);
       items_.assign(kMaxMapIndex, 0);
       const int n = int(walls_.size());
       walls_.resize(walls_.size() + 4);
       gridFence(g, walls_.data() + n);
       int used = 0;
-      if (fillGrid(walls_.data(), n + 4, g, start_.data(), items_.data(), kMaxMapIndex, &used) !=
+      if (fillGrid(walls_.data(), n + 4, g, cells_.data(), items_.data(), kMaxMapIndex, &used) !=
           IndexStatus::kOk) {
         *error = "the grid index of " + std::to_string(cell_m) + " m cells has more than " +
                  std::to_string(kMaxMapIndex) + " entries; use larger cells";
@@ -74,7 +74,7 @@ class HostMap {
   }
 
   MapView<S> view() const {
-    return MapView<S>(MapTables<S>{walls_.data(), size(), grid_, start_.empty() ? nullptr : start_.data(),
+    return MapView<S>(MapTables<S>{walls_.data(), size(), grid_, cells_.empty() ? nullptr : cells_.data(),
                                    items_.empty() ? nullptr : items_.data()});
   }
   /// The map's walls (the fence not counted).
@@ -82,13 +82,13 @@ class HostMap {
   const GridSpec<S>& grid() const { return grid_; }
   /// The map's walls, then the grid's fence (4 walls) when there is a grid.
   const std::vector<WallRec<S>>& walls() const { return walls_; }
-  const std::vector<MapIndex>& cellStart() const { return start_; }
+  const std::vector<MapCell>& cells() const { return cells_; }
   const std::vector<MapIndex>& cellItems() const { return items_; }
 
  private:
   std::vector<WallRec<S>> walls_;
   GridSpec<S> grid_{};
-  std::vector<MapIndex> start_;
+  std::vector<MapCell> cells_;
   std::vector<MapIndex> items_;
 };
 
