@@ -269,19 +269,22 @@ ODOERR_NOINLINE int walkGrid(const MapTables<S>& m, S px, S py, S ux, S uy, S mi
     // inside it hits, ends it. The nearest hit is then sought at any range; one past the
     // far end is no hit (below).
     best.r = S(1e30);
+    MapCell w = cells[c];
     for (;;) {
-      const MapCell w = cells[c];
       if (w != 0) {
         testCell(w);
         if (best.wall >= 0) break;
       }
-      if (t_max_x < t_max_y) {
-        c += step_x;
-        t_max_x += dt_x;
-      } else {
-        c += step_y;
-        t_max_y += dt_y;
-      }
+      do {  // on through the empty cells
+        if (t_max_x < t_max_y) {
+          c += step_x;
+          t_max_x += dt_x;
+        } else {
+          c += step_y;
+          t_max_y += dt_y;
+        }
+        w = cells[c];
+      } while (w == 0);
     }
   }
   for (;;) {
