@@ -36,7 +36,7 @@ std::string mapTableSource(const HostMap<float>& map, const std::string& symbol,
   s += "const odoerr::WallRec<float> kWalls[] = {\n";
   for (const auto& w : map.walls()) {
     s += "    {" + f32(w.x1) + ", " + f32(w.y1) + ", " + f32(w.ex) + ", " + f32(w.ey) + ", " + f32(w.nx) + ", " +
-         f32(w.ny) + "},\n";
+         f32(w.ny) + ", " + f32(w.x2) + ", " + f32(w.y2) + "},\n";
   }
   s += "};\n";
   const bool grid = g.nx > 0;

@@ -45,6 +45,9 @@ struct RayHit {
 template <typename S>
 struct WallRec {
   S x1, y1, ex, ey, nx, ny;
+  // The end point, so that a wall reads back as it was given; it also makes the record
+  // 8 words, which the walk addresses by one shift (measured on the Cortex-M4F).
+  S x2, y2;
 };
 
 /// Returns false when the segment is degenerate or not finite.
@@ -55,7 +58,7 @@ inline bool makeWallRec(const Segment<S>& w, WallRec<S>* out) {
   const S ey = w.y2 - w.y1;
   const S len = std::sqrt(ex * ex + ey * ey);
   if (!(len > S(0))) return false;
-  *out = WallRec<S>{w.x1, w.y1, ex, ey, -ey / len, ex / len};
+  *out = WallRec<S>{w.x1, w.y1, ex, ey, -ey / len, ex / len, w.x2, w.y2};
   return true;
 }
 
@@ -272,7 +275,11 @@ ODOERR_NOINLINE int walkGrid(const MapTables<S>& m, S px, S py, S ux, S uy, S mi
     MapCell w = cells[c];
     for (;;) {
       if (w != 0) {
-        testCell(w);
+        // No test for a wall tested in the cell before: a ray seldom meets a wall it
+        // missed in the next cell (measured: the test cost more than it saved).
+        const MapIndex* it = items + cellStart(w);
+        const MapIndex* const end = it + cellCount(w);
+        for (; it != end; ++it) testWall(walls[*it], *it, px, py, ux, uy, min_range, &best);
         if (best.wall >= 0) break;
       }
       do {  // on through the empty cells
@@ -286,6 +293,7 @@ ODOERR_NOINLINE int walkGrid(const MapTables<S>& m, S px, S py, S ux, S uy, S mi
         w = cells[c];
       } while (w == 0);
     }
+    last = best.wall;  // the hit wall, which may go on into the next cells
   }
   for (;;) {
     if constexpr (!kFenced) testCell(cells[c]);
@@ -477,7 +485,7 @@ class MapView {
   int size() const { return t_.n_walls; }
   Segment<S> wall(int i) const {
     const WallRec<S>& w = t_.walls[i];
-    return {w.x1, w.y1, w.x1 + w.ex, w.y1 + w.ey};
+    return {w.x1, w.y1, w.x2, w.y2};
   }
   const MapTables<S>& tables() const { return t_; }
 
