@@ -61,10 +61,23 @@ def symbol_sizes(nm, elf):
         parts = line.split()
         if len(parts) >= 4 and parts[2] in "rRdDtT":
             name = " ".join(parts[3:])
-            for key in ("kWalls", "kCellStart", "kCellItems", "kOdoerrMap"):
+            for key in ("kWalls", "kCells", "kCellItems", "kOdoerrMap"):
                 if name.endswith(key):
                     sizes[key] = int(parts[1], 16)
     return sizes
+
+
+# sizeof(odoerr::WallRec<float>): 8 floats (core/include/odoerr/map.hpp).
+WALL_RECORD_BYTES = 32
+
+
+def map_walls(sizes):
+    """The map's walls from the size of its wall table (the grid's fence left out)."""
+    table = sizes.get("kWalls", 0)
+    if table % WALL_RECORD_BYTES:
+        raise SystemExit(f"footprint: kWalls is {table} bytes, not a multiple of the "
+                         f"{WALL_RECORD_BYTES}-byte wall record: has WallRec changed?")
+    return table // WALL_RECORD_BYTES - (4 if "kCells" in sizes else 0)
 
 
 def measure_map(qemu, plugin, nm, spec, workdir):
@@ -88,7 +101,7 @@ def measure_map(qemu, plugin, nm, spec, workdir):
     return {
         "name": name,
         # kWalls holds the map's walls, then the grid's fence (4 walls) when there is a grid.
-        "segments": sizes.get("kWalls", 0) // 24 - (4 if "kCellStart" in sizes else 0),
+        "segments": map_walls(sizes),
         "beams_per_scan": beams,
         "beams_used": used if used else beams,
         "beams_fused_per_cycle": round(fused / cycles, 2),
