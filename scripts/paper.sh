@@ -1,13 +1,21 @@
 #!/usr/bin/env bash
 # The main job: reproduce the paper's experiment (Section 5) for both drives.
-# Usage: scripts/paper.sh [RUNS]   -> out/paper-sync/, out/paper-diff/
+# Usage: scripts/paper.sh [RUNS]   -> out/paper-{sync,diff}/ (the paper's OF), out/paper-{sync,diff}-ml/
 set -euo pipefail
 cd "$(dirname "$0")/.."
 RUNS="${1:-100}"
 bash scripts/deps.sh
 cmake --preset host >/dev/null
 cmake --build --preset host --target odoerr -j 2
+# The paper's Observable Filter, then odoerr's maximum-likelihood K estimator (--of ml,
+# docs/nonsystematic.md) on the same drives (the same seeds), side by side.
 for drive in sync diff; do
   ./build/host/tools/odoerr/odoerr paper --drive "$drive" --runs "$RUNS" --out "out/paper-$drive"
+  ./build/host/tools/odoerr/odoerr paper --drive "$drive" --runs "$RUNS" --of ml --out "out/paper-$drive-ml"
 done
-echo "Results: out/paper-sync/ and out/paper-diff/ (summary.json, paper_*.csv, fig*.png, pose_*.png)"
+for drive in sync diff; do
+  echo
+  /usr/bin/python3 tools/report/paper_compare.py "out/paper-$drive" "out/paper-$drive-ml"
+done
+echo
+echo "Results: out/paper-{sync,diff}/ (the paper's OF) and out/paper-{sync,diff}-ml/ (summary.json, paper_*.csv, fig*.png, pose_*.png)"
