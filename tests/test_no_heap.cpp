@@ -66,22 +66,36 @@ struct Armed {
   }
 };
 
+/// One cycle's input: the drive's increment and the scan's ranges.
+template <typename S, template <typename> class DriveT>
+struct CycleIn {
+  typename DriveT<S>::Input u;
+  S r[kMaxBeams];
+};
+
+/// 200 cycles' inputs simulated from the estimator's start, computed before the armed
+/// region.
+template <typename S, template <typename> class DriveT, typename Est>
+std::vector<CycleIn<S, DriveT>> simulatedInputs(const SimConfig& cfg, PaperSim<DriveT<double>>* sim,
+                                                const Est& est) {
+  std::vector<CycleIn<S, DriveT>> inputs(200);
+  for (auto& in : inputs) {
+    const auto& x = est.akf().state();
+    typename DriveT<double>::ParamVec pp = DriveT<double>::nominal();
+    const auto st = sim->step({double(x[0]), double(x[1]), double(x[2])}, pp);
+    in.u = convertInput<typename DriveT<S>::Input>(st.input);
+    for (int i = 0; i < cfg.laser.beams; ++i) in.r[i] = S(st.ranges[i]);
+  }
+  return inputs;
+}
+
 template <typename S, template <typename> class DriveT>
 long allocationsInCycles() {
   SimConfig cfg;
   FilterSetup setup;
   PaperSim<DriveT<double>> sim(cfg, 3);
   auto est = makeEstimator<S, DriveT>(sim, setup, NonSysStart::kSmall);
-  // Pre-compute the inputs outside the armed region.
-  struct In { typename DriveT<S>::Input u; S r[kMaxBeams]; };
-  std::vector<In> inputs(200);
-  for (auto& in : inputs) {
-    const auto& x = est.akf().state();
-    typename DriveT<double>::ParamVec pp = DriveT<double>::nominal();
-    const auto st = sim.step({double(x[0]), double(x[1]), double(x[2])}, pp);
-    in.u = convertInput<typename DriveT<S>::Input>(st.input);
-    for (int i = 0; i < cfg.laser.beams; ++i) in.r[i] = S(st.ranges[i]);
-  }
+  const auto inputs = simulatedInputs<S, DriveT>(cfg, &sim, est);
   int beams = 0;
   {
     Armed guard;
@@ -101,15 +115,7 @@ long allocationsInMlCycles() {
   PaperSim<DriveT<double>> sim(cfg, 3);
   auto est = makeEstimator<S, DriveT>(sim, setup, NonSysStart::kSmall);
   MlDriver<decltype(est)> ml(est, KMlConfig<S>{});
-  struct In { typename DriveT<S>::Input u; S r[kMaxBeams]; };
-  std::vector<In> inputs(200);
-  for (auto& in : inputs) {
-    const auto& x = est.akf().state();
-    typename DriveT<double>::ParamVec pp = DriveT<double>::nominal();
-    const auto st = sim.step({double(x[0]), double(x[1]), double(x[2])}, pp);
-    in.u = convertInput<typename DriveT<S>::Input>(st.input);
-    for (int i = 0; i < cfg.laser.beams; ++i) in.r[i] = S(st.ranges[i]);
-  }
+  const auto inputs = simulatedInputs<S, DriveT>(cfg, &sim, est);
   {
     Armed guard;
     for (const auto& in : inputs) ml.cycle(in.u, in.r);
