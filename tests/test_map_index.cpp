@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <random>
 #include <vector>
 
@@ -77,6 +78,57 @@ TEST(MapIndex, GridCastEqualsTestingEveryWall) {
       }
     }
   }
+}
+
+// Rays that no wall can stop: a NaN or infinite origin, a NaN or zero direction (an
+// infinite one only off the map: castDir's contract asks for a finite unit vector), rays
+// from between the map and its fence aimed outwards and at the fence's corners. The walk
+// must end with no hit and never leave its tables (AddressSanitizer runs this suite in
+// CI: host-asan-ci). Before session 7 a NaN direction walked out of the grid.
+template <typename S>
+void expectBadRaysMiss() {
+  const auto walls = randomBuilding(3, 60);
+  static SegmentMap<S, 512, 8192, 16384> owned;
+  for (const auto& w : walls) ASSERT_TRUE(owned.add({S(w.x1), S(w.y1), S(w.x2), S(w.y2)}));
+  ASSERT_EQ(owned.buildIndex(S(0.75)), IndexStatus::kOk);
+  const S nan = std::numeric_limits<S>::quiet_NaN(), inf = std::numeric_limits<S>::infinity();
+  const S bad[][4] = {
+      {nan, 0, 1, 0},    {0, nan, 1, 0},     {0, 0, nan, 0},  {0, 0, 0, nan},  {0, 0, nan, nan},
+      {0, 0, 0, 0},      {inf, 0, 1, 0},     {0, -inf, 0, 1}, {1e6, 1e6, nan, 1}, {-1e6, 0, 0, 0},
+      {-1e6, 0, nan, 0}, {-1e6, 0, inf, 0},  {0, 1e6, 0, -inf},
+  };
+  for (const auto& r : bad) {
+    const RayHit<S> h = owned.castDir(r[0], r[1], r[2], r[3]);
+    EXPECT_FALSE(h.hit) << r[0] << " " << r[1] << " " << r[2] << " " << r[3];
+  }
+  // From the margin between the building's outer walls (+-20, +-15) and the fence, outwards
+  // and at the fence box's four corners (exactly, in S): only the fence is there.
+  const GridSpec<S> g = owned.tables().grid;
+  const S h2 = S(0.5) * g.cell;
+  const S cx[2] = {g.x0 + h2, g.x0 + S(g.nx) * g.cell - h2}, cy[2] = {g.y0 + h2, g.y0 + S(g.ny) * g.cell - h2};
+  int rays = 0;
+  for (int i = 0; i < 2; ++i) {
+    for (int j = 0; j < 2; ++j) {
+      const S sx = i ? S(20.1) : S(-20.1), sy = j ? S(15.1) : S(-15.1);
+      for (int k = 0; k <= 8; ++k) {  // towards the corner, and fanned out around it
+        const S dx = cx[i] - sx, dy = cy[j] - sy;
+        const S a = std::atan2(dy, dx) + S(k - 4) * S(0.2);
+        const S ux = k == 4 ? dx / std::sqrt(dx * dx + dy * dy) : std::cos(a);
+        const S uy = k == 4 ? dy / std::sqrt(dx * dx + dy * dy) : std::sin(a);
+        if (ux * (sx > 0 ? 1 : -1) < S(0) || uy * (sy > 0 ? 1 : -1) < S(0)) continue;  // outwards only
+        EXPECT_FALSE(owned.castDir(sx, sy, ux, uy).hit) << sx << " " << sy << " k " << k;
+        ++rays;
+      }
+    }
+  }
+  EXPECT_GE(rays, 4 * 3);
+  // A good ray from the same map still hits (the bad ones above are refused, not all rays).
+  EXPECT_TRUE(owned.castDir(S(0.1), S(0.2), S(1), S(0)).hit);
+}
+
+TEST(MapIndex, BadRaysEndWithoutAHit) {
+  expectBadRaysMiss<double>();
+  expectBadRaysMiss<float>();
 }
 
 TEST(MapIndex, MaxRangeCutsTheRay) {

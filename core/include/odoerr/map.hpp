@@ -181,7 +181,7 @@ inline RayHit<S> finishHit(const WallRec<S>* walls, const Nearest<S>& best, S ux
 
 }  // namespace map_detail
 
-/// Nearest intersection of the ray p + r u (u a unit vector), min_range < r <= max_range,
+/// Nearest intersection of the ray p + r u (u a finite unit vector), min_range < r <= max_range,
 /// with every one of n walls (small maps: no index).
 template <typename S>
 inline RayHit<S> castEveryWall(const WallRec<S>* walls, int n, S px, S py, S ux, S uy, S min_range, S max_range) {
@@ -228,6 +228,9 @@ ODOERR_NOINLINE int walkGrid(const MapTables<S>& m, S px, S py, S ux, S uy, S mi
   S dt_y = big;
   int step_x = -1;
   int step_y = -g.nx;
+  // A NaN or zero direction is no hit: no wall, not even the fence, would end its walk.
+  // (Tested in the branches a unit vector seldom takes; an infinite component is outside
+  // castDir's contract.)
   if (ux > S(0)) {
     dt_x = g.cell / ux;
     t_max_x = dt_x * (S(1) - fx);
@@ -235,6 +238,9 @@ ODOERR_NOINLINE int walkGrid(const MapTables<S>& m, S px, S py, S ux, S uy, S mi
   } else if (ux < S(0)) {
     dt_x = -g.cell / ux;
     t_max_x = dt_x * fx;
+  } else if (!(ux == S(0))) {
+    *range = far;
+    return -1;
   }
   if (uy > S(0)) {
     dt_y = g.cell / uy;
@@ -243,6 +249,9 @@ ODOERR_NOINLINE int walkGrid(const MapTables<S>& m, S px, S py, S ux, S uy, S mi
   } else if (uy < S(0)) {
     dt_y = -g.cell / uy;
     t_max_y = dt_y * fy;
+  } else if (!(uy == S(0)) || ux == S(0)) {
+    *range = far;
+    return -1;
   }
   if constexpr (!kFenced) {
     // The borders' distances are measured from p, as the hits' are: the walk starts at t0.
@@ -323,8 +332,12 @@ ODOERR_NOINLINE int walkGrid(const MapTables<S>& m, S px, S py, S ux, S uy, S mi
 template <typename S>
 inline void gridFence(const GridSpec<S>& g, WallRec<S> fence[4]) {
   const S h = S(0.5) * g.cell;
-  const S x0 = g.x0 + h, y0 = g.y0 + h, x1 = g.x0 + S(g.nx) * g.cell - h, y1 = g.y0 + S(g.ny) * g.cell - h;
-  const Segment<S> sides[4] = {{x0, y0, x1, y0}, {x1, y0, x1, y1}, {x1, y1, x0, y1}, {x0, y1, x0, y0}};
+  const S gx1 = g.x0 + S(g.nx) * g.cell, gy1 = g.y0 + S(g.ny) * g.cell;
+  const S x0 = g.x0 + h, y0 = g.y0 + h, x1 = gx1 - h, y1 = gy1 - h;
+  // Each wall runs the grid's whole edge, past the box's corners, so that the four overlap
+  // there: a ray aimed at a corner cannot slip between two of them by rounding.
+  const Segment<S> sides[4] = {
+      {g.x0, y0, gx1, y0}, {x1, g.y0, x1, gy1}, {gx1, y1, g.x0, y1}, {x0, gy1, x0, g.y0}};
   for (int k = 0; k < 4; ++k) (void)makeWallRec(sides[k], &fence[k]);
 }
 
@@ -336,6 +349,11 @@ namespace map_detail {
 template <typename S>
 ODOERR_NOINLINE RayHit<S> castGridOutside(const MapTables<S>& m, S px, S py, S ux, S uy, S min_range,
                                           S max_range) {
+  // Off the map, the rare path, the ray is checked: a NaN or infinite origin or direction,
+  // or a zero direction, is no hit (the walk's end test would never end it).
+  if (!(isFinite(px) && isFinite(py) && isFinite(ux) && isFinite(uy)) || (ux == S(0) && uy == S(0))) {
+    return RayHit<S>{};
+  }
   const GridSpec<S>& g = m.grid;
   const S h = S(0.5) * g.cell;
   const S x1 = g.x0 + S(g.nx) * g.cell, y1 = g.y0 + S(g.ny) * g.cell;
@@ -364,7 +382,7 @@ ODOERR_ALWAYS_INLINE RayHit<S> castGrid(const MapTables<S>& m, S px, S py, S ux,
   return map_detail::castGridOutside(m, px, py, ux, uy, min_range, max_range);
 }
 
-/// Nearest intersection of the ray p + r u (u a unit vector), min_range < r <= max_range,
+/// Nearest intersection of the ray p + r u (u a finite unit vector), min_range < r <= max_range,
 /// with the walls of `m` (through its grid when it has one).
 template <typename S>
 ODOERR_ALWAYS_INLINE RayHit<S> castTables(const MapTables<S>& m, S px, S py, S ux, S uy, S min_range, S max_range) {
