@@ -2,6 +2,7 @@
 // compute; docs/nonsystematic.md derives them). Uses the core's model and Jacobians only:
 // Akf::transition (F, G at the true state), Drive::noiseVariance (Q, linear in K) and
 // Akf::expectedRange (the beam's H at the true pose).
+// The joint recursion of K and delta (K with delta unknown) runs beside it: bound_joint.hpp.
 #pragma once
 
 #include <algorithm>
