@@ -42,7 +42,8 @@ def main():
             check(set(cp) == {"distance_m", "params", "pose_rms"}, "checkpoint keys")
             check(sorted(cp["params"]) == sorted(names), "parameter names")
             for v in cp["params"].values():
-                check(set(v) == {"true", "mean", "accuracy_pct", "bound_pct", "rmse", "sigma_mean", "sigma_ratio"},
+                check(set(v) == {"true", "mean", "accuracy_pct", "bound_pct", "bound_pct_joint", "rmse", "sigma_mean",
+                                    "sigma_ratio"},
                       "parameter keys")
                 check(all(math.isfinite(x) for k, x in v.items() if k != "sigma_ratio"), "finite values")
                 # sigma honesty: mean reported sigma over the spread across runs (null: no spread)
@@ -51,7 +52,7 @@ def main():
                     check(v["sigma_ratio"] is not None and abs(v["sigma_ratio"] - v["sigma_mean"] / sd) <= 1e-6 * v["sigma_ratio"],
                           "sigma_ratio = sigma_mean / spread")
                 check(v["sigma_mean"] >= 0, "sigma_mean not negative")
-                check(v["bound_pct"] > 0, "positive bound")
+                check(v["bound_pct"] > 0 and v["bound_pct_joint"] > 0, "positive bounds")
             check(set(cp["pose_rms"]) == {"position_m", "orientation_rad"}, "pose_rms keys")
     csv = os.path.join(a.dir, f"paper_{a.drive}.csv")
     check(os.path.getsize(csv) > 1000, "CSV written")

@@ -312,6 +312,10 @@ json point(const BoundPoint& p) {
   j["nonsystematic_covariance_term_only"] = values(p.nonsystematic_cov_term);
   j["fisher_K"] = p.fisher;
   j["fisher_K_covariance_term"] = p.fisher_cov_term;
+  j["nonsystematic_delta_unknown"] = values(p.nonsystematic_delta_unknown);
+  j["nonsystematic_delta_given_pose_model"] = values(p.nonsystematic_delta_given);
+  j["systematic_joint"] = values(p.systematic_joint);
+  j["fisher_K_delta"] = p.fisher_joint;
   return j;
 }
 }  // namespace

@@ -2,6 +2,7 @@
 // compute; docs/nonsystematic.md derives them). Uses the core's model and Jacobians only:
 // Akf::transition (F, G at the true state), Drive::noiseVariance (Q, linear in K) and
 // Akf::expectedRange (the beam's H at the true pose).
+// The joint recursion of K and delta (K with delta unknown) runs beside it: bound_joint.hpp.
 #pragma once
 
 #include <algorithm>
@@ -17,6 +18,7 @@
 #include "odoerr/akf.hpp"
 #include "odoerr/laser.hpp"
 #include "odoerr/sim/bound.hpp"
+#include "bound_joint.hpp"
 
 namespace odoerr::sim::bound_detail {
 
@@ -56,11 +58,23 @@ bool runBound(const Problem<ModelT>& pb, const MapT& map, const LaserGeometry<do
   using KMat = Eigen::Matrix<double, M, M>;
 
   const double r = laser.config().sigma * laser.config().sigma;
-  StateMat p = pb.p0;
+  // The prior, its systematic block scaled by opt.systematic_prior_scale (1: the filter's).
+  StateMat p0 = pb.p0;
+  {
+    StateVec sc = StateVec::Ones();
+    sc.template segment<Drive::kParams>(ModelT::kDriveOffset).setConstant(opt.systematic_prior_scale);
+    p0 = (sc.asDiagonal() * p0 * sc.asDiagonal()).eval();
+  }
+  StateMat p = p0;
+  JointRecursion<ModelT> joint(p0);
+  if (!joint.prior_ok) {
+    *error = "the prior covariance of the systematic parameters is not positive definite";
+    return false;
+  }
   StateMat dp[M];
   for (auto& d : dp) d.setZero();
   JointMat c = JointMat::Zero();
-  c.template topLeftCorner<N, N>() = pb.p0;
+  c.template topLeftCorner<N, N>() = p0;
   KMat info_cov = KMat::Zero();
   KMat info_mean = KMat::Zero();
   double dist = 0;
@@ -105,6 +119,32 @@ bool runBound(const Problem<ModelT>& pb, const MapT& map, const LaserGeometry<do
     };
     kBound(info_cov + info_mean, &bp.nonsystematic, &bp.fisher);
     kBound(info_cov, &bp.nonsystematic_cov_term, &bp.fisher_cov_term);
+    // K with delta unknown: the KK block of the joint information's inverse (its Schur
+    // complement); delta's block of the same inverse; K from J_KK alone (delta given).
+    {
+      using JR = JointRecursion<ModelT>;
+      using ThetaMat = typename JR::ThetaMat;
+      const ThetaMat jj = joint.information();
+      std::vector<std::vector<double>> unused;
+      kBound(jj.template topLeftCorner<M, M>(), &bp.nonsystematic_delta_given, &unused);
+      Eigen::LLT<ThetaMat> llt(jj);
+      const bool ok = llt.info() == Eigen::Success;
+      ThetaMat cov = ThetaMat::Zero();
+      if (ok) cov = llt.solve(ThetaMat::Identity());
+      for (int a = 0; a < JR::T; ++a) {
+        const bool is_k = a < M;
+        const char* name = is_k ? Drive::kNonSysNames[a] : Drive::kParamNames[a - M];
+        const double truth = is_k ? pb.k_true[a] : pb.truth_params[ModelT::kDriveOffset + a - M];
+        BoundValue v{name, truth, -1, -1};
+        if (ok && cov(a, a) > 0 && std::isfinite(cov(a, a))) {
+          v.sigma = std::sqrt(cov(a, a));
+          if (truth != 0) v.bound_pct = 100.0 * v.sigma / std::abs(truth);
+        }
+        (is_k ? bp.nonsystematic_delta_unknown : bp.systematic_joint).push_back(v);
+        bp.fisher_joint.emplace_back();
+        for (int b = 0; b < JR::T; ++b) bp.fisher_joint.back().push_back(jj(a, b));
+      }
+    }
     const double scale = p.cwiseAbs().maxCoeff();
     mismatch = std::max(mismatch, (c.template topLeftCorner<N, N>() - p).cwiseAbs().maxCoeff() / scale);
     return bp;
@@ -139,6 +179,7 @@ bool runBound(const Problem<ModelT>& pb, const MapT& map, const LaserGeometry<do
       }
     }
     c.template topLeftCorner<3, 3>() += gqg;
+    joint.predict(pb.model, xt, cy.u, pb.k_true);
     nlohmann::json dc;
     if (dump) {
       dc["F"] = nlohmann::json::array();
@@ -156,6 +197,17 @@ bool runBound(const Problem<ModelT>& pb, const MapT& map, const LaserGeometry<do
       dc["dQ"] = nlohmann::json::array();
       for (int i = 0; i < M; ++i) dc["dQ"].push_back(std::vector<double>(dq[i].data(), dq[i].data() + dq[i].size()));
       dc["H"] = nlohmann::json::array();
+      // d G / d delta_j (the joint recursion's, for the dense check)
+      dc["dG_ddelta"] = nlohmann::json::array();
+      for (int j = 0; j < Drive::kParams; ++j) {
+        nlohmann::json b = nlohmann::json::array();
+        for (int i = 0; i < 3; ++i) {
+          std::vector<double> row(ModelT::kNoise);
+          for (int n = 0; n < ModelT::kNoise; ++n) row[n] = joint.dg[j](i, n);
+          b.push_back(row);
+        }
+        dc["dG_ddelta"].push_back(b);
+      }
     }
 
     // --- the scan's beams, one scalar update each, H at the true pose ------------------
@@ -219,6 +271,7 @@ bool runBound(const Problem<ModelT>& pb, const MapT& map, const LaserGeometry<do
       for (int i = 0; i < M; ++i) bv.template segment<N>((1 + i) * N) = dk[i];
       c += r * bv * bv.transpose();
       c = (0.5 * (c + c.transpose())).eval();
+      joint.beam(h3.transpose(), r);
       ++out->beams;
       if (dump) dc["H"].push_back(std::vector<double>{h3(0), h3(1), h3(2)});
     }
@@ -240,10 +293,10 @@ bool runBound(const Problem<ModelT>& pb, const MapT& map, const LaserGeometry<do
     d["states"] = N;
     d["nonsys"] = M;
     d["range_variance"] = r;
-    std::vector<std::vector<double>> p0(N, std::vector<double>(N));
+    std::vector<std::vector<double>> p0v(N, std::vector<double>(N));
     for (int i = 0; i < N; ++i)
-      for (int j = 0; j < N; ++j) p0[i][j] = pb.p0(i, j);
-    d["P0"] = p0;
+      for (int j = 0; j < N; ++j) p0v[i][j] = p0(i, j);
+    d["P0"] = p0v;
     d["k_true"] = std::vector<double>(pb.k_true.data(), pb.k_true.data() + M);
     d["cycles"] = std::move(dump_cycles);
     std::ofstream f(opt.dump_path);

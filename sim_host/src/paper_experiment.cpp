@@ -144,10 +144,15 @@ void addBound(const PaperOptions& opt, PaperResult* res) {
   const std::size_t records = res->cases.front().distance_m.size();
   const std::size_t params = res->cases.front().names.size();
   res->bound_pct.assign(records, std::vector<double>(params, std::nan("")));
+  res->bound_pct_joint = res->bound_pct;
   auto row = [&](std::size_t r, const BoundPoint& bp) {
+    auto pct = [](const BoundValue& v) { return v.bound_pct >= 0 ? v.bound_pct : std::nan(""); };
     std::size_t q = 0;
-    for (const auto& v : bp.systematic) res->bound_pct[r][q++] = v.bound_pct >= 0 ? v.bound_pct : std::nan("");
-    for (const auto& v : bp.nonsystematic) res->bound_pct[r][q++] = v.bound_pct >= 0 ? v.bound_pct : std::nan("");
+    for (const auto& v : bp.systematic) res->bound_pct[r][q++] = pct(v);
+    for (const auto& v : bp.nonsystematic) res->bound_pct[r][q++] = pct(v);
+    q = 0;
+    for (const auto& v : bp.systematic_joint) res->bound_pct_joint[r][q++] = pct(v);
+    for (const auto& v : bp.nonsystematic_delta_unknown) res->bound_pct_joint[r][q++] = pct(v);
   };
   // Records: cycle 0, then every record_every cycles, and the last cycle when steps is not
   // a multiple (runDrive's); the bound's along-path records are the multiples.
@@ -214,6 +219,7 @@ std::string summaryJson(const PaperResult& r) {
       for (std::size_t q = 0; q < c.names.size(); ++q) {
         const Stat& s = c.params[i][q];
         const double b = r.bound_pct.empty() ? std::nan("") : r.bound_pct[i][q];
+        const double bj = r.bound_pct_joint.empty() ? std::nan("") : r.bound_pct_joint[i][q];
         // Sigma honesty: the mean reported sigma over the spread (population std) across
         // runs; null when the spread is zero (one run) or undefined.
         const double spread = s.accuracy_pct / 100.0 * std::abs(s.mean);
@@ -222,6 +228,7 @@ std::string summaryJson(const PaperResult& r) {
                               {"mean", s.mean},
                               {"accuracy_pct", s.accuracy_pct},
                               {"bound_pct", std::isfinite(b) ? json(b) : json(nullptr)},
+                              {"bound_pct_joint", std::isfinite(bj) ? json(bj) : json(nullptr)},
                               {"rmse", s.rmse},
                               {"sigma_mean", s.sigma_mean},
                               {"sigma_ratio", std::isfinite(ratio) ? json(ratio) : json(nullptr)}};

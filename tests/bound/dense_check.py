@@ -35,6 +35,84 @@ def run(cmd):
     return r
 
 
+def joint_check(lin, b, H, r):
+    """K with delta unknown: the joint information of theta = (K, delta) from the dense
+    Gaussian of the pose-only model z ~ N(mu(theta), Sigma(theta)) (delta a parameter of the
+    data, the filter's prior on the pose), exact formula
+        J_ab = mu_a^T Sigma^-1 mu_b + 0.5 tr(Sigma^-1 Sigma_a Sigma^-1 Sigma_b) + prior on delta,
+    with mu_delta = H m (m: the stacked mean path's derivative, F_pp products of d f/d delta,
+    F's delta columns) and Sigma_delta by central differences of Sigma under G + e dG/d delta
+    (F_pp at the true delta, as in the recursion; step 1e-5: truncation ~1e-10, rounding
+    ~1e-11 relative)."""
+    N, M = lin["states"], lin["nonsys"]
+    cyc = lin["cycles"]
+    T = len(cyc)
+    L = N - 3
+    k_true = np.array(lin["k_true"])
+    P0 = np.array(lin["P0"])
+    nw = len(cyc[0]["G"][0])
+    Hp = H.reshape(H.shape[0], T, N)[:, :, :3].reshape(H.shape[0], T * 3)  # pose columns only
+    Fpp = [np.array(cy["F"])[:, :3] for cy in cyc]
+    Fpd = [np.array(cy["F"])[:, 3:] for cy in cyc]
+    G = [np.array(cy["G"]) for cy in cyc]
+    dG = [[np.array(cy["dG_ddelta"][j]) for cy in cyc] for j in range(L)]
+    dq = np.array([[v for cy in cyc for v in cy["dQ"][i]] for i in range(M)])
+    q = k_true @ dq
+
+    def stacks(Fs, Gs):
+        A = np.zeros((T * 3, 3))
+        B = np.zeros((T * 3, T * nw))
+        pa, pb = np.eye(3), np.zeros((3, T * nw))
+        for c in range(T):
+            pa = Fs[c] @ pa
+            pb = Fs[c] @ pb
+            pb[:, c * nw:(c + 1) * nw] += Gs[c]
+            A[c * 3:(c + 1) * 3] = pa
+            B[c * 3:(c + 1) * 3] = pb
+        return Hp @ A, Hp @ B
+
+    def sigma(Fs, Gs):
+        HA, HB = stacks(Fs, Gs)
+        return HA @ P0[:3, :3] @ HA.T + (HB * q) @ HB.T + r * np.eye(Hp.shape[0]), HB
+
+    S, HB = sigma(Fpp, G)
+    dS = [(HB * dq[i]) @ HB.T for i in range(M)]
+    mus = [np.zeros(Hp.shape[0]) for _ in range(M)]
+    eps = 1e-5
+    for j in range(L):
+        Sp, _ = sigma(Fpp, [G[c] + eps * dG[j][c] for c in range(T)])
+        Sm, _ = sigma(Fpp, [G[c] - eps * dG[j][c] for c in range(T)])
+        dS.append((Sp - Sm) / (2 * eps))
+        mvec, mm = np.zeros(T * 3), np.zeros(3)
+        for c in range(T):
+            mm = Fpp[c] @ mm + Fpd[c][:, j]
+            mvec[c * 3:(c + 1) * 3] = mm
+        mus.append(Hp @ mvec)
+    Sinv = np.linalg.inv(S)
+    Y = [Sinv @ d for d in dS]
+    nt = M + L
+    J = np.array([[mus[a] @ Sinv @ mus[b] + 0.5 * np.sum(Y[a] * Y[b].T) for b in range(nt)] for a in range(nt)])
+    J[M:, M:] += np.linalg.inv(P0[3:, 3:])
+    J_rec = np.array(b["final"]["fisher_K_delta"])
+    # relative to each entry's scale sqrt(J_aa J_bb) (the entries span 1e0..1e12)
+    scale = np.sqrt(np.outer(np.diag(J), np.diag(J)))
+    rel = np.max(np.abs(J_rec - J) / scale)
+    print("joint information of (K, delta): recursion\n%s\ndense\n%s\nmax difference / sqrt(J_aa J_bb) %.2e "
+          "(tolerance 1e-6)" % (J_rec, J, rel))
+    fails = []
+    if not rel < 1e-6:
+        fails.append("the joint information differs from the dense one by %.2e" % rel)
+    cov = np.linalg.inv(J)
+    names = list(b["final"]["nonsystematic"].keys())
+    for i, n in enumerate(names):
+        rec = b["final"]["nonsystematic_delta_unknown"][n]["sigma"]
+        d = abs(rec - np.sqrt(cov[i, i])) / np.sqrt(cov[i, i])
+        print("%s with delta unknown: sigma recursion %.6g, dense %.6g (%.1e)" % (n, rec, np.sqrt(cov[i, i]), d))
+        if not d < 1e-6:
+            fails.append("%s's delta-unknown sigma differs from the dense one by %.2e" % (n, d))
+    return fails
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("odoerr")
@@ -153,6 +231,7 @@ def main():
           % (np.array(sig_rec), sig_dense, rel_s))
     if not rel_s < 1e-6:
         fails.append("the recursion's final sigmas differ from the dense posterior by %.2e" % rel_s)
+    fails += joint_check(lin, b, H, r)
     # Monte Carlo of the score.
     rng = np.random.default_rng(a.seed)
     # z = L e, so Sigma^-1 z = L^-T e; z^T Sigma^-1 dSigma_i Sigma^-1 z = sum_k dq_ik (HB^T Sigma^-1 z)_k^2

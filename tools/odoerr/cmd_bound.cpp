@@ -24,6 +24,8 @@ struct BoundArgs {
   double cycle_m = 0.01;
   std::vector<std::string> truth;
   std::string dump;
+  std::string path = "circle";
+  double systematic_prior_scale = 1.0;
 };
 
 int runBound(const BoundArgs& a, bool drive_given, bool sim_only_given) {
@@ -31,6 +33,7 @@ int runBound(const BoundArgs& a, bool drive_given, bool sim_only_given) {
   BoundOptions opt;
   opt.every_m = a.every_m;
   opt.dump_path = a.dump;
+  opt.systematic_prior_scale = a.systematic_prior_scale;
   BoundResult res;
   std::string err;
   if (a.log.empty()) {
@@ -40,6 +43,10 @@ int runBound(const BoundArgs& a, bool drive_given, bool sim_only_given) {
     }
     SimConfig cfg;
     cfg.steps = a.steps;
+    if (a.path == "eight") {  // as odoerr paper --path eight
+      cfg.figure_eight = true;
+      cfg.radius = 2.0;
+    }
     if (!boundOfSimulatedDrive(a.drive == "sync" ? DriveKind::kSync : DriveKind::kDiff, cfg, a.seed, FilterSetup{},
                                opt, &res, &err)) {
       std::fprintf(stderr, "odoerr bound: %s\n", err.c_str());
@@ -47,7 +54,7 @@ int runBound(const BoundArgs& a, bool drive_given, bool sim_only_given) {
     }
   } else {
     if (drive_given || sim_only_given) {
-      std::fprintf(stderr, "odoerr bound: --drive, --seed and --steps describe a simulated drive; a log gives its own\n");
+      std::fprintf(stderr, "odoerr bound: --drive, --seed, --steps and --path describe a simulated drive; a log gives its own\n");
       return 1;
     }
     Odolog log;
@@ -78,6 +85,8 @@ int runBound(const BoundArgs& a, bool drive_given, bool sim_only_given) {
   };
   for (const auto& v : f.systematic) line(v);
   for (const auto& v : f.nonsystematic) line(v);
+  std::printf("with the systematic parameters unknown (joint information of K and delta):\n");
+  for (const auto& v : f.nonsystematic_delta_unknown) line(v);
   return 0;
 }
 
@@ -99,8 +108,13 @@ void registerBoundCommand(CLI::App& app, cli::Commands& cmds) {
   sub->add_option("--truth", a->truth, "log: true values NAME=V (overrides the log's 'meta truth')")->delimiter(',');
   sub->add_option("--dump-linearisation", a->dump,
                   "write the per-cycle F, G, dQ/dK and beam rows H as JSON (for an independent check)");
-  cmds.add(sub, [a, drive, seed, steps]() {
-    return runBound(*a, drive->count() > 0, seed->count() > 0 || steps->count() > 0);
+  auto* path = sub->add_option("--path", a->path, "simulated drive: circle (the paper's) or eight (as odoerr paper --path eight)")
+                   ->check(CLI::IsMember({"circle", "eight"}));
+  sub->add_option("--systematic-prior-scale", a->systematic_prior_scale,
+                  "scale the prior sigma of the systematic parameters (1: the filter's; small: delta known)")
+      ->check(CLI::Range(1e-12, 1e6));
+  cmds.add(sub, [a, drive, seed, steps, path]() {
+    return runBound(*a, drive->count() > 0, seed->count() > 0 || steps->count() > 0 || path->count() > 0);
   });
 }
 

@@ -15,6 +15,11 @@
 //                                           of the filter's prediction to K, whose second
 //                                           moment is propagated jointly with the error)
 // The bound is sigma_K = sqrt((I^-1)_ii) (data only: no prior on K).
+//
+// K with delta unknown (bound_joint.hpp): the joint information of theta = (K, delta), with
+// delta a parameter of the data distribution (the pose-only filter at theta: the prediction
+// and F, G depend on delta) plus the filter's prior information on delta; K's bound is the
+// KK block of its inverse.
 #pragma once
 
 #include <cstdint>
@@ -46,6 +51,13 @@ struct BoundPoint {
   std::vector<BoundValue> nonsystematic_cov_term;   ///< the covariance term alone
   std::vector<std::vector<double>> fisher;          ///< full information matrix of K
   std::vector<std::vector<double>> fisher_cov_term; ///< its covariance term
+  /// K with the systematic parameters delta unknown (joint information of theta = (K, delta),
+  /// delta a parameter of the data with the filter's prior on it; K's block of its inverse).
+  std::vector<BoundValue> nonsystematic_delta_unknown;
+  /// K from the joint information's KK block alone (the same model with delta given).
+  std::vector<BoundValue> nonsystematic_delta_given;
+  std::vector<BoundValue> systematic_joint;         ///< delta's block of the same inverse (K unknown too)
+  std::vector<std::vector<double>> fisher_joint;    ///< joint information, order (K..., delta...), prior included
 };
 
 struct BoundResult {
@@ -67,6 +79,9 @@ struct BoundOptions {
   /// Optional: write the linearisation (per cycle F, G, dQ/dK, beam rows H) as JSON for
   /// an independent dense computation (tests/bound/dense_check.py).
   std::string dump_path;
+  /// Scales the prior sigma of the systematic parameters (both recursions); 1 = the
+  /// filter's. For the limit delta known (tests) and for studies.
+  double systematic_prior_scale = 1.0;
 };
 
 /// The bound on a simulated drive of the paper's experiment (run `seed`, K started

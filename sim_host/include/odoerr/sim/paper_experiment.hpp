@@ -58,6 +58,9 @@ struct PaperResult {
   /// path), in %, at every record of the cases ([record][param], systematic then
   /// non-systematic; NaN where undefined, e.g. at distance 0), and its computing time.
   std::vector<std::vector<double>> bound_pct;
+  /// The same with K and delta estimated jointly (odoerr bound's nonsystematic_delta_unknown
+  /// and systematic_joint).
+  std::vector<std::vector<double>> bound_pct_joint;
   double bound_time_s = 0;
 };
 
