@@ -5,8 +5,9 @@ Usage: paper_compare.py PAPER_DIR OTHER_DIR [--at METRES]
 
 Each directory is an `odoerr paper --out` directory (summary.json). Prints, for each
 parameter and each start (K 100x below / above the truth), the mean over the truth, the
-accuracy (100 std / mean, %), the Cramer-Rao bound (%) and sigma's ratio to the spread, at
-the last checkpoint (or --at).
+accuracy (100 std / mean, %), sigma's ratio to the spread, and the Cramer-Rao bounds (%):
+`bound` with the systematic parameters known, `joint` with them unknown (K_w's differs on
+the circle, docs/nonsystematic.md), at the last checkpoint (or --at).
 Exits 1 with a message naming the file when a summary is missing, unreadable or does
 not match the other (drive, runs, path).
 """
@@ -49,6 +50,10 @@ def cell(p):
     return f"{p['mean'] / p['true']:.3f}x {p['accuracy_pct']:5.1f} % s{r}"
 
 
+def pct(v):
+    return f"{v:.2f} %" if isinstance(v, (int, float)) else "-"
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("paper_dir")
@@ -68,12 +73,11 @@ def main():
         cp_a = checkpoint(base, base_path, init, a.at)
         cp_b = checkpoint(other, other_path, init, a.at)
         print(f"  {label}, at {cp_a['distance_m']:g} m:")
-        print(f"    {'':10} {names[0]:>24} {names[1]:>24} {'bound':>8}")
+        print(f"    {'':10} {names[0]:>24} {names[1]:>24} {'bound':>8} {'joint':>8}")
         for name, p in cp_a["params"].items():
             q = cp_b["params"].get(name)
-            bound = p.get("bound_pct")
-            b = f"{bound:.2f} %" if isinstance(bound, (int, float)) else "-"
-            print(f"    {name:10} {cell(p):>24} {cell(q):>24} {b:>8}")
+            print(f"    {name:10} {cell(p):>24} {cell(q):>24} {pct(p.get('bound_pct')):>8} "
+                  f"{pct(p.get('bound_pct_joint')):>8}")
         pa, pb = cp_a.get("pose_rms", {}), cp_b.get("pose_rms", {})
         if pa and pb:
             print(f"    {'pose RMS':10} {pa['position_m'] * 100:21.2f} cm {pb['position_m'] * 100:21.2f} cm")
