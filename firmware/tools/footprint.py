@@ -127,6 +127,7 @@ def main():
     ap.add_argument("--tape", required=True, help="host tape of the primary drive")
     ap.add_argument("--host-replay", required=True)
     ap.add_argument("--batch-elf", help="textbook batch EKF image of the same cycle (comparison)")
+    ap.add_argument("--ml-elf", help="the same cycle with the ML estimator of K in the OF's place (core_replay_ml)")
     ap.add_argument("--firmware-elf", help="the firmware application image (sizes, stack)")
     ap.add_argument("--hal-tape", help="HAL tape for the firmware image")
     ap.add_argument("--out", required=True)
@@ -164,6 +165,9 @@ def main():
         batch = None
         if a.batch_elf:
             batch, _ = cycle_cost(qemu, a.plugin, a.batch_elf, a.tape, os.path.join(tmp, "batch"), n1, n2)
+        ml = None
+        if a.ml_elf:
+            ml, _ = cycle_cost(qemu, a.plugin, a.ml_elf, a.tape, os.path.join(tmp, "ml"), n1, n2)
         maps = [measure_map(qemu, a.plugin, a.nm_tool, spec, tmp) for spec in a.map]
         best = None
         for _ in range(5):
@@ -188,6 +192,9 @@ def main():
         "harness_instructions_per_cycle": round(harness),
         "batch_textbook_instructions_per_cycle": round(batch) if batch else None,
         "batch_over_sequential": round(batch / ipc, 1) if batch else None,
+        # --of ml's estimator of K in the OF's place, the rest of the cycle the same (issue 15).
+        "of_ml": {"image": os.path.basename(a.ml_elf), "instructions_per_cycle": round(ml),
+                  "over_paper_of": round(ml / ipc, 2)} if ml else None,
         "instructions_whole_drive": counts[(cycles_total, False)],
         "cycles_whole_drive": cycles_total,
         "host_ns_per_cycle": round(best * 1e9 / cycles_total),

@@ -115,7 +115,7 @@ class KMaxLikelihood {
       for (int i = 0; i < M; ++i) c(i, i) = k_[i] * k_[i];  // no information: 100 %
       return c;
     }
-    const KMat ci = llt.solve(KMat::Identity());
+    const KMat ci = inverseOf(llt);
     return k_.asDiagonal() * ci * k_.asDiagonal();
   }
   /// covariance() with the systematic parameters' uncertainty carried over where Q depends
@@ -238,12 +238,21 @@ class KMaxLikelihood {
   }
 
  private:
+  /// J^-1 from its factor (info() checked by the caller), one column at a time: a solve with
+  /// a matrix right-hand side goes through Eigen's blocked triangular solve, which refers
+  /// to malloc, and the firmware's link refuses that (heap trap).
+  static KMat inverseOf(const Eigen::LLT<KMat>& llt) {
+    KMat ci;
+    for (int i = 0; i < M; ++i) ci.col(i) = llt.solve(KVec::Unit(i));
+    return ci;
+  }
+
   void updateFilterK() {
     kf_ = k_;
     if (!(cfg_.inflate > S(0))) return;
     Eigen::LLT<KMat> llt(j_);
     const bool ok = llt.info() == Eigen::Success;
-    const KMat ci = ok ? KMat(llt.solve(KMat::Identity())) : KMat::Zero();
+    const KMat ci = ok ? inverseOf(llt) : KMat::Zero();
     for (int i = 0; i < M; ++i) {
       const S sig = ok && ci(i, i) > S(0) ? std::sqrt(ci(i, i)) : cfg_.max_inflate_log;
       const S up = std::min(cfg_.inflate * sig - cfg_.inflate_offset, cfg_.max_inflate_log);

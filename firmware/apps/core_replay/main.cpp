@@ -23,8 +23,13 @@ int main(int argc, char** argv) {
   if (io::read(in, hb, sizeof hb) != sizeof hb || !odoerr::fw::decodeHeader(hb, &h)) return 2;
   auto rd = [&](void* b, std::size_t n) { return io::read(in, b, n); };
   auto wr = [&](const void* b, std::size_t n) { return io::write(out, b, n); };
+#ifdef ODOERR_REPLAY_OF_ML  // core_replay_ml: the ML estimator of K in the OF's place
+  const int rc = h.drive == 0 ? odoerr::fw::replayTapeMl<odoerr::SyncDrive>(h, rd, wr, &io::stackHighWater)
+                              : odoerr::fw::replayTapeMl<odoerr::DiffDrive>(h, rd, wr, &io::stackHighWater);
+#else
   const int rc = h.drive == 0 ? odoerr::fw::replayTape<odoerr::SyncDrive>(h, rd, wr, &io::stackHighWater)
                               : odoerr::fw::replayTape<odoerr::DiffDrive>(h, rd, wr, &io::stackHighWater);
+#endif
   io::close(in);
   io::close(out);
   return rc;

@@ -3,6 +3,7 @@
 #pragma once
 
 #include "odoerr/fw/paper_setup.hpp"
+#include "odoerr/k_ml_driver.hpp"
 #include "odoerr/fw/tape.hpp"
 
 namespace odoerr::fw {
@@ -71,6 +72,50 @@ int replayTape(const TapeHeader& h, Read&& read, Write&& write, std::uint32_t (*
   FilterSetup setup;
   Est est = makePaperEstimator<S, DriveT>(setup, Pose<double>{double(h.x0), double(h.y0), double(h.theta0)}, k0);
   return replayThrough<64>(est, h, read, write, stack_probe);
+}
+
+/// The estimator of replayThrough with the recursive ML estimator of K (MlDriver) in the
+/// Observable Filter's place: of() reads K, its covariance and its steps (as "updates").
+template <typename Est>
+class MlReplay {
+ public:
+  using Model = typename Est::Model;
+  using Drv = MlDriver<Est>;
+  struct OfView {
+    const typename Drv::MlT* ml;
+    typename Drv::MlT::KVec estimate() const { return ml->estimate(); }
+    typename Drv::MlT::KMat covariance() const { return ml->covariance(); }
+    struct Counters {
+      std::uint32_t updates;
+    };
+    Counters counters() const { return {ml->counters().steps}; }
+  };
+
+  MlReplay(const Est& est, const KMlConfig<typename Model::Scalar>& cfg) : drv_(est, cfg) {}
+  const typename Drv::AkfT& akf() const { return drv_.akf(); }
+  OfView of() const { return {&drv_.ml()}; }
+  Status cycle(const typename Model::Input& u, const typename Model::Scalar* ranges) {
+    drv_.cycle(u, ranges);
+    return Status::kOk;
+  }
+
+ private:
+  Drv drv_;
+};
+
+/// replayTape with the recursive ML estimator of K (k_ml.hpp, its default settings) in the
+/// OF's place: the firmware image that measures its cost (core_replay_ml).
+template <template <typename> class DriveT, typename Read, typename Write>
+int replayTapeMl(const TapeHeader& h, Read&& read, Write&& write, std::uint32_t (*stack_probe)()) {
+  using S = float;
+  using Est = typename PaperTypes<S, DriveT>::EstimatorT;
+  constexpr int K = Est::Model::kNonSys;
+  typename DriveT<S>::NonSysVec k0;
+  for (int i = 0; i < K; ++i) k0[i] = h.k0[i];
+  FilterSetup setup;
+  const Est est = makePaperEstimator<S, DriveT>(setup, Pose<double>{double(h.x0), double(h.y0), double(h.theta0)}, k0);
+  MlReplay<Est> ml(est, KMlConfig<S>{});
+  return replayThrough<64>(ml, h, read, write, stack_probe);
 }
 
 }  // namespace odoerr::fw

@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "odoerr/estimator.hpp"
-#include "odoerr/k_ml.hpp"
+#include "odoerr/k_ml_driver.hpp"
 #include "odoerr/fw/paper_setup.hpp"
 #include "odoerr/sim/paper_sim.hpp"
 
@@ -25,67 +25,9 @@ enum class OfKind { kPaper, kMl };
 
 inline const char* toString(OfKind k) { return k == OfKind::kPaper ? "paper" : "ml"; }
 
-/// The AKF driven by KMaxLikelihood instead of the OF: the same AKF, map and laser as `est`
-/// (copied), the same cycle (predict with the estimator's filter K, fuse the scan), with the
-/// likelihood's sensitivities carried beside it. Host side: each fused beam's measurement
-/// row is recomputed by a second ray cast at the state before the beam (the core's cycle
-/// does not hand it out).
-template <typename Est>
-class MlDriver {
- public:
-  using AkfT = typename Est::AkfT;
-  using Model = typename Est::Model;
-  using S = typename Model::Scalar;
-  using MlT = KMaxLikelihood<Model>;
-  static constexpr int N = Model::kStates;
-
-  MlDriver(const Est& est, const KMlConfig<S>& cfg) : akf_(est.akf()), map_(est.map()), laser_(est.laser()), ml_(cfg) {
-    ml_.init(est.of().estimate());
-  }
-
-  void cycle(const typename Model::Input& u, const S* ranges) {
-    ml_.predict(akf_.model(), akf_.state(), u);
-    if (akf_.predict(u, ml_.filterK()) != Status::kOk) return;
-    if (ranges != nullptr) {
-      typename AkfT::StateMat p_pre = akf_.covariance();
-      typename AkfT::StateVec x_pre = akf_.state();
-      auto observe = [&](const typename AkfT::BeamRecord& rec) {
-        if (rec.status != Status::kOk) return;
-        Eigen::Matrix<S, 1, 3> h3;
-        S range = S(0);
-        typename AkfT::StateVec h = AkfT::StateVec::Zero();
-        if (AkfT::expectedRange(map_, laser_, x_pre[0], x_pre[1], std::cos(x_pre[2]), std::sin(x_pre[2]), rec.beam,
-                                S(0), &range, &h3) == Status::kOk) {
-          h.template head<3>() = h3.transpose();
-          const S nu = rec.measured - rec.predicted;
-          ml_.beam(h, p_pre, nu, rec.variance);
-          loglik_ += S(-0.5) * (std::log(rec.variance) + nu * nu / rec.variance);
-        }
-        const auto& p = akf_.covariance();  // upper triangle current within a scan
-        for (int j = 0; j < N; ++j) {
-          for (int k = j; k < N; ++k) p_pre(j, k) = p_pre(k, j) = p(j, k);
-        }
-        x_pre = akf_.state();
-      };
-      (void)akf_.updateScan(map_, laser_, ranges, observe);
-    }
-    ml_.endCycle();
-  }
-
-  const AkfT& akf() const { return akf_; }
-  const MlT& ml() const { return ml_; }
-  /// Restarts K (and its recursion) at k; for tests.
-  void restartK(const typename MlT::KVec& k) { ml_.init(k); }
-  /// Sum of -1/2 (log s + nu^2/s) over the fused beams so far (the innovation likelihood).
-  S logLikelihood() const { return loglik_; }
-
- private:
-  AkfT akf_;
-  typename Est::MapT map_;
-  typename Est::LaserT laser_;
-  MlT ml_;
-  S loglik_ = S(0);
-};
+/// MlDriver (the AKF driven by the recursive ML estimator of K) lives in the core
+/// (odoerr/k_ml_driver.hpp), so that the firmware image can measure it too.
+using odoerr::MlDriver;
 
 /// The filter's priors and options, shared with the firmware (fw/paper_setup.hpp).
 using FilterSetup = fw::FilterSetup;
