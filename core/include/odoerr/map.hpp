@@ -15,94 +15,18 @@
 //   the host (`odoerr map compile`) and linked into the firmware's flash: nothing is built
 //   at boot. Cheap to copy.
 // Both cast rays with the same function (castTables), so they agree bit for bit.
+// The tables' layout is in map_tables.hpp, the index's construction in map_index.hpp.
 #pragma once
 
 #include <cstdint>
+#include <type_traits>
 
 #include "odoerr/laser.hpp"
+#include "odoerr/map_index.hpp"
+#include "odoerr/map_tables.hpp"
 #include "odoerr/scalar.hpp"
 
 namespace odoerr {
-
-template <typename S>
-struct Segment {
-  S x1, y1, x2, y2;
-};
-
-/// Result of casting one ray against the map.
-template <typename S>
-struct RayHit {
-  bool hit = false;
-  int wall = -1;
-  S range = S(0);
-  S nx = S(0);      ///< unit normal of the wall that was hit
-  S ny = S(0);
-  S n_dot_u = S(0); ///< normal . ray direction: |n.u| = cos(incidence angle)
-};
-
-/// One wall as the ray cast reads it: start point, direction (end - start) and unit normal
-/// (-ey, ex) / |e|.
-template <typename S>
-struct WallRec {
-  S x1, y1, ex, ey, nx, ny;
-  // The end point, so that a wall reads back as it was given; it also makes the record
-  // 8 words, which the walk addresses by one shift (measured on the Cortex-M4F).
-  S x2, y2;
-};
-
-/// Returns false when the segment is degenerate or not finite.
-template <typename S>
-inline bool makeWallRec(const Segment<S>& w, WallRec<S>* out) {
-  if (!(isFinite(w.x1) && isFinite(w.y1) && isFinite(w.x2) && isFinite(w.y2))) return false;
-  const S ex = w.x2 - w.x1;
-  const S ey = w.y2 - w.y1;
-  const S len = std::sqrt(ex * ex + ey * ey);
-  if (!(len > S(0))) return false;
-  *out = WallRec<S>{w.x1, w.y1, ex, ey, -ey / len, ex / len, w.x2, w.y2};
-  return true;
-}
-
-/// The index type of the grid's tables (walls and items are counted in it).
-using MapIndex = std::uint16_t;
-constexpr int kMaxMapIndex = 65535;
-
-/// One grid cell: where its walls start in the item list (high 16 bits) and how many
-/// there are (low 16 bits). An empty cell is 0, so the walk tells it by one load
-/// (measured on the Cortex-M4F, docs/performance.md).
-using MapCell = std::uint32_t;
-constexpr int cellStart(MapCell w) { return static_cast<int>(w >> 16); }
-constexpr int cellCount(MapCell w) { return static_cast<int>(w & 0xFFFFu); }
-
-/// A uniform grid over [x0, x0 + nx cell) x [y0, y0 + ny cell). nx == 0: no grid. The
-/// walls lie at least one cell inside its edge; the tables add a fence (gridFence).
-template <typename S>
-struct GridSpec {
-  S x0 = S(0), y0 = S(0), cell = S(1), inv_cell = S(1);
-  int nx = 0, ny = 0;
-  /// The box inside the fence (setFenceBox): a ray from there walks with no bounds test.
-  S in_x0 = S(0), in_y0 = S(0), in_x1 = S(0), in_y1 = S(0);
-};
-
-/// Sets g's box inside the fence: half a cell in from the grid's edge (see gridFence).
-template <typename S>
-inline void setFenceBox(GridSpec<S>* g) {
-  const S h = S(0.5) * g->cell;
-  g->in_x0 = g->x0 + h;
-  g->in_y0 = g->y0 + h;
-  g->in_x1 = g->x0 + S(g->nx) * g->cell - h;
-  g->in_y1 = g->y0 + S(g->ny) * g->cell - h;
-}
-
-/// The map's tables, not owned. cells has nx * ny entries. With a grid, walls
-/// holds n_walls + 4 entries: the map's walls, then the grid's fence.
-template <typename S>
-struct MapTables {
-  const WallRec<S>* walls = nullptr;
-  int n_walls = 0;
-  GridSpec<S> grid{};
-  const MapCell* cells = nullptr;
-  const MapIndex* cell_items = nullptr;
-};
 
 namespace map_detail {
 
@@ -265,14 +189,17 @@ ODOERR_NOINLINE int walkGrid(const MapTables<S>& m, S px, S py, S ux, S uy, S mi
   const MapCell* const cells = m.cells;
   const MapIndex* const items = m.cell_items;
   const WallRec<S>* const walls = m.walls;
-  // Tests the walls listed in a cell.
-  auto testCell = [&](MapCell w) {
+  // Tests the walls listed in a cell; with kRepeatCheck, not the wall tested last.
+  auto testCell = [&](MapCell w, auto repeat_check) {
+    constexpr bool kRepeatCheck = decltype(repeat_check)::value;
     const MapIndex* it = items + cellStart(w);
     const MapIndex* const end = it + cellCount(w);
     for (; it != end; ++it) {
       const int i = *it;
-      if (i == last || (!kFenced && i >= m.n_walls)) continue;
-      last = i;
+      if constexpr (kRepeatCheck) {
+        if (i == last || (!kFenced && i >= m.n_walls)) continue;
+        last = i;
+      }
       testWall(walls[i], i, px, py, ux, uy, min_range, &best);
     }
   };
@@ -286,9 +213,7 @@ ODOERR_NOINLINE int walkGrid(const MapTables<S>& m, S px, S py, S ux, S uy, S mi
       if (w != 0) {
         // No test for a wall tested in the cell before: a ray seldom meets a wall it
         // missed in the next cell (measured: the test cost more than it saved).
-        const MapIndex* it = items + cellStart(w);
-        const MapIndex* const end = it + cellCount(w);
-        for (; it != end; ++it) testWall(walls[*it], *it, px, py, ux, uy, min_range, &best);
+        testCell(w, std::false_type{});
         if (best.wall >= 0) break;
       }
       do {  // on through the empty cells
@@ -305,7 +230,7 @@ ODOERR_NOINLINE int walkGrid(const MapTables<S>& m, S px, S py, S ux, S uy, S mi
     last = best.wall;  // the hit wall, which may go on into the next cells
   }
   for (;;) {
-    if constexpr (!kFenced) testCell(cells[c]);
+    if constexpr (!kFenced) testCell(cells[c], std::true_type{});
     // The nearest hit so far (or the far end) lies in this cell or before it: no later
     // cell can hold a nearer one (every wall is listed in every cell it touches).
     if (t_max_x < t_max_y) {
@@ -317,7 +242,7 @@ ODOERR_NOINLINE int walkGrid(const MapTables<S>& m, S px, S py, S ux, S uy, S mi
       c += step_y;
       t_max_y += dt_y;
     }
-    if constexpr (kFenced) testCell(cells[c]);
+    if constexpr (kFenced) testCell(cells[c], std::true_type{});
   }
   *range = best.r;
   // The fence, or past the far end: nothing within range.
@@ -325,21 +250,6 @@ ODOERR_NOINLINE int walkGrid(const MapTables<S>& m, S px, S py, S ux, S uy, S mi
 }
 
 }  // namespace map_detail
-
-/// The fence of a grid: four walls along the middle of its margin cells, which every ray
-/// starting inside them hits (if nothing nearer), so that the walk needs no bounds test.
-/// The grid's tables hold them after the map's own walls (indices n_walls .. n_walls + 3).
-template <typename S>
-inline void gridFence(const GridSpec<S>& g, WallRec<S> fence[4]) {
-  const S h = S(0.5) * g.cell;
-  const S gx1 = g.x0 + S(g.nx) * g.cell, gy1 = g.y0 + S(g.ny) * g.cell;
-  const S x0 = g.x0 + h, y0 = g.y0 + h, x1 = gx1 - h, y1 = gy1 - h;
-  // Each wall runs the grid's whole edge, past the box's corners, so that the four overlap
-  // there: a ray aimed at a corner cannot slip between two of them by rounding.
-  const Segment<S> sides[4] = {
-      {g.x0, y0, gx1, y0}, {x1, g.y0, x1, gy1}, {gx1, y1, g.x0, y1}, {x0, gy1, x0, g.y0}};
-  for (int k = 0; k < 4; ++k) (void)makeWallRec(sides[k], &fence[k]);
-}
 
 namespace map_detail {
 
@@ -388,109 +298,6 @@ template <typename S>
 ODOERR_ALWAYS_INLINE RayHit<S> castTables(const MapTables<S>& m, S px, S py, S ux, S uy, S min_range, S max_range) {
   if (m.grid.nx == 0) return castEveryWall(m.walls, m.n_walls, px, py, ux, uy, min_range, max_range);
   return castGrid(m, px, py, ux, uy, min_range, max_range);
-}
-
-/// Whether wall w touches the closed cell [cx0, cx0 + cell] x [cy0, cy0 + cell] (grown by
-/// a small margin, so that rounding never drops a wall from a cell its ray may meet).
-template <typename S>
-inline bool wallTouchesCell(const WallRec<S>& w, S cx0, S cy0, S cell) {
-  const S m = cell * S(1e-3);
-  const S lo_x = cx0 - m, hi_x = cx0 + cell + m, lo_y = cy0 - m, hi_y = cy0 + cell + m;
-  const S x2 = w.x1 + w.ex, y2 = w.y1 + w.ey;
-  // Bounding boxes first.
-  if ((w.x1 < lo_x && x2 < lo_x) || (w.x1 > hi_x && x2 > hi_x) || (w.y1 < lo_y && y2 < lo_y) ||
-      (w.y1 > hi_y && y2 > hi_y)) {
-    return false;
-  }
-  // Then the wall's line: the box's corners must not all lie strictly on one side.
-  const S d[4] = {w.ex * (lo_y - w.y1) - w.ey * (lo_x - w.x1), w.ex * (lo_y - w.y1) - w.ey * (hi_x - w.x1),
-                  w.ex * (hi_y - w.y1) - w.ey * (lo_x - w.x1), w.ex * (hi_y - w.y1) - w.ey * (hi_x - w.x1)};
-  const bool all_pos = d[0] > S(0) && d[1] > S(0) && d[2] > S(0) && d[3] > S(0);
-  const bool all_neg = d[0] < S(0) && d[1] < S(0) && d[2] < S(0) && d[3] < S(0);
-  return !all_pos && !all_neg;
-}
-
-/// Why an index could not be built.
-enum class IndexStatus : std::uint8_t { kOk, kBadCell, kTooManyCells, kTooManyItems };
-
-/// The grid for `n` walls at cell size `cell`: a box around the walls, one cell of margin.
-template <typename S>
-inline IndexStatus gridFor(const WallRec<S>* walls, int n, S cell, int max_cells, GridSpec<S>* g) {
-  if (!(cell > S(0)) || !isFinite(cell) || n <= 0) return IndexStatus::kBadCell;
-  S lo_x = walls[0].x1, hi_x = lo_x, lo_y = walls[0].y1, hi_y = lo_y;
-  for (int i = 0; i < n; ++i) {
-    const S xs[2] = {walls[i].x1, walls[i].x1 + walls[i].ex};
-    const S ys[2] = {walls[i].y1, walls[i].y1 + walls[i].ey};
-    for (int k = 0; k < 2; ++k) {
-      lo_x = xs[k] < lo_x ? xs[k] : lo_x;
-      hi_x = xs[k] > hi_x ? xs[k] : hi_x;
-      lo_y = ys[k] < lo_y ? ys[k] : lo_y;
-      hi_y = ys[k] > hi_y ? ys[k] : hi_y;
-    }
-  }
-  const S nxf = (hi_x - lo_x) / cell + S(3);
-  const S nyf = (hi_y - lo_y) / cell + S(3);
-  if (!(nxf * nyf <= S(max_cells))) return IndexStatus::kTooManyCells;
-  g->cell = cell;
-  g->inv_cell = S(1) / cell;
-  g->nx = static_cast<int>(nxf);
-  g->ny = static_cast<int>(nyf);
-  g->x0 = lo_x - cell;
-  g->y0 = lo_y - cell;
-  setFenceBox(g);
-  return IndexStatus::kOk;
-}
-
-/// Fills the grid's tables: cells (nx * ny entries, see MapCell) and cell_items (at most
-/// max_items), each cell's walls in index order. Each wall visits only the cells of its
-/// bounding box; two passes (count, then fill), no heap.
-template <typename S>
-inline IndexStatus fillGrid(const WallRec<S>* walls, int n, const GridSpec<S>& g, MapCell* cell_tab,
-                            MapIndex* cell_items, int max_items, int* items_used) {
-  const int cells = g.nx * g.ny;
-  // The first pass counts cell c's walls in its low half; then each cell gets its start
-  // and a count of 0, which the second pass counts up again as it fills.
-  for (int c = 0; c < cells; ++c) cell_tab[c] = 0;
-  auto cellRange = [&g](S a, S b, S origin, int n_cells, int* lo, int* hi) {
-    const S mn = a < b ? a : b, mx = a < b ? b : a;
-    *lo = static_cast<int>((mn - origin) * g.inv_cell) - 1;
-    *hi = static_cast<int>((mx - origin) * g.inv_cell) + 1;
-    *lo = *lo < 0 ? 0 : *lo;
-    *hi = *hi >= n_cells ? n_cells - 1 : *hi;
-  };
-  int total = 0;
-  for (int pass = 0; pass < 2; ++pass) {
-    for (int i = 0; i < n; ++i) {
-      const WallRec<S>& w = walls[i];
-      int x_lo, x_hi, y_lo, y_hi;
-      cellRange(w.x1, w.x1 + w.ex, g.x0, g.nx, &x_lo, &x_hi);
-      cellRange(w.y1, w.y1 + w.ey, g.y0, g.ny, &y_lo, &y_hi);
-      for (int iy = y_lo; iy <= y_hi; ++iy) {
-        for (int ix = x_lo; ix <= x_hi; ++ix) {
-          if (!wallTouchesCell(w, g.x0 + S(ix) * g.cell, g.y0 + S(iy) * g.cell, g.cell)) continue;
-          const int c = iy * g.nx + ix;
-          if (pass == 0) {
-            if (total >= max_items || total >= kMaxMapIndex) return IndexStatus::kTooManyItems;
-            ++total;
-            ++cell_tab[c];
-          } else {
-            cell_items[cellStart(cell_tab[c]) + cellCount(cell_tab[c])] = static_cast<MapIndex>(i);
-            ++cell_tab[c];
-          }
-        }
-      }
-    }
-    if (pass == 0) {  // counts to starts (an empty cell stays 0)
-      MapCell start = 0;
-      for (int c = 0; c < cells; ++c) {
-        const MapCell count = cell_tab[c];
-        cell_tab[c] = count != 0 ? start << 16 : 0;
-        start += count;
-      }
-    }
-  }
-  *items_used = total;
-  return IndexStatus::kOk;
 }
 
 /// A map whose tables live elsewhere (constant tables in flash, or a host builder's).
