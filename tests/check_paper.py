@@ -29,7 +29,11 @@ def main():
     with open(os.path.join(a.dir, "summary.json")) as f:
         s = json.load(f)
     names = SYNC if a.drive == "sync" else DIFF
-    check(set(s) == {"drive", "runs", "of", "path", "radius_m", "wall_time_s", "bound", "cases"}, "top-level keys")
+    keys = {"drive", "runs", "of", "path", "radius_m", "wall_time_s", "bound", "cases"}
+    check(set(s) == (keys | {"ml"} if s.get("of") == "ml" else keys), "top-level keys")
+    if s.get("of") == "ml":
+        check(set(s["ml"]) == {"every", "reset_log", "inflate", "inflate_cap", "form"}
+              and s["ml"]["form"] in ("scan", "beam"), "ml settings")
     check(s["path"] in ("circle", "eight"), "path is circle or eight")
     check(0 < s["radius_m"] <= (5 if s["path"] == "circle" else 2.5), "radius inside the room")
     check(s["of"] in ("paper", "ml"), "of is paper or ml")

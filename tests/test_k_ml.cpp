@@ -1,5 +1,6 @@
-// The recursive maximum-likelihood estimator of K (core/include/odoerr/k_ml.hpp): its score
-// against central differences of the AKF's innovation log-likelihood on a recorded drive.
+// The recursive maximum-likelihood estimator of K (core/include/odoerr/k_ml.hpp): its score,
+// per beam and per whole scan, against central differences of the AKF's innovation
+// log-likelihood on a recorded drive; the two forms' information against each other.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -30,9 +31,14 @@ void checkScore(double tol) {
   mc.every = 1 << 30;  // never steps: K stays where it is set, the score accumulates
   mc.inflate = 0;      // the AKF runs with K itself
   mc.reset_log = 0;
-  auto replay = [&](const typename D::NonSysVec& k, double* ll, typename D::NonSysVec* score, int* used) {
+  using KMat = Eigen::Matrix<double, D::kNonSys, D::kNonSys>;
+  KMat info_last = KMat::Zero();
+  auto replay = [&](const typename D::NonSysVec& k, double* ll, typename D::NonSysVec* score, int* used,
+                    bool per_beam = true) {
     auto est = makeEstimator<double, DriveT>(sim, setup, NonSysStart::kSmall);
-    MlDriver<decltype(est)> drv(est, mc);
+    KMlConfig<double> c = mc;
+    c.per_beam = per_beam;
+    MlDriver<decltype(est)> drv(est, c);
     drv.restartK(k);
     std::vector<double> ranges(std::size_t(kMaxBeams), 0.0);
     for (const auto& st : steps) {
@@ -43,12 +49,20 @@ void checkScore(double tol) {
     *ll = drv.logLikelihood();
     *score = drv.ml().blockScore();
     *used = int(drv.akf().counters().beams_used);
+    info_last = drv.ml().blockInformation();
   };
   double ll0 = 0;
   typename D::NonSysVec score;
   int used0 = 0;
   replay(k_true, &ll0, &score, &used0);
   ASSERT_GT(used0, 1000);
+  const KMat info_beam = info_last;
+  double ll_scan = 0;
+  typename D::NonSysVec score_scan;
+  int used_scan = 0;
+  replay(k_true, &ll_scan, &score_scan, &used_scan, false);
+  ASSERT_EQ(used_scan, used0) << "the scan form changed the AKF";
+  const KMat info_scan = info_last;
   const double eps = 1e-3;
   for (int i = 0; i < D::kNonSys; ++i) {
     typename D::NonSysVec kp = k_true, km = k_true, dummy;
@@ -63,7 +77,13 @@ void checkScore(double tol) {
     const double fd = (llp - llm) / (2 * eps * k_true[i]);
     std::printf("score[%d] recursion %.6g  central difference %.6g  (rel %.3g)\n", i, score[i], fd,
                 std::abs(score[i] - fd) / std::abs(fd));
+    std::printf("score[%d] whole scans %.6g  (rel %.3g)\n", i, score_scan[i], std::abs(score_scan[i] - fd) / std::abs(fd));
     EXPECT_NEAR(score[i], fd, tol * std::abs(fd)) << "K index " << i;
+    EXPECT_NEAR(score_scan[i], fd, tol * std::abs(fd)) << "K index " << i << " (whole scans)";
+    for (int j = 0; j < D::kNonSys; ++j) {
+      std::printf("info(%d,%d) per beam %.6g  whole scans %.6g\n", i, j, info_beam(i, j), info_scan(i, j));
+      EXPECT_NEAR(info_scan(i, j), info_beam(i, j), tol * std::sqrt(info_beam(i, i) * info_beam(j, j)));
+    }
   }
 }
 
@@ -88,7 +108,8 @@ struct McStats {
 
 /// A small Monte Carlo of `runs` closed-loop drives of `metres` with --of ml from `start`.
 template <template <typename> class DriveT>
-McStats monteCarlo(int runs, int metres, NonSysStart start, const KMlConfig<double>& mc) {
+McStats monteCarlo(int runs, int metres, NonSysStart start, const KMlConfig<double>& mc,
+                   OfKind of = OfKind::kMl) {
   using D = DriveT<double>;
   using L = TraceLayout<D>;
   SimConfig cfg;
@@ -100,7 +121,7 @@ McStats monteCarlo(int runs, int metres, NonSysStart start, const KMlConfig<doub
   const int m = D::kNonSys < 2 ? D::kNonSys : 2;
   std::vector<double> k[2], sg[2], sys;
   for (int r = 0; r < runs; ++r) {
-    const Trace t = runDrive<double, DriveT>(cfg, 1 + std::uint64_t(r), start, setup, cfg.steps, nullptr, OfKind::kMl, mc);
+    const Trace t = runDrive<double, DriveT>(cfg, 1 + std::uint64_t(r), start, setup, cfg.steps, nullptr, of, mc);
     const double* row = &t.values[(t.distance_m.size() - 1) * std::size_t(t.width)];
     for (int i = 0; i < m; ++i) {
       k[i].push_back(row[L::kValue + L::kP + i] / kt[i]);
@@ -166,7 +187,9 @@ TEST(KMl, ConvergesFromBelowSync) {
   const McStats below = monteCarlo<SyncDrive>(20, 10, NonSysStart::kSmall, def);
   const McStats above = monteCarlo<SyncDrive>(20, 10, NonSysStart::kLarge, def);
   const McStats below_old = monteCarlo<SyncDrive>(20, 10, NonSysStart::kSmall, old);
+  const McStats below_of = monteCarlo<SyncDrive>(20, 10, NonSysStart::kSmall, def, OfKind::kPaper);
   print("below (defaults)", below);
+  print("below (the paper's OF)", below_of);
   print("above (defaults)", above);
   print("below (no restart, no inflation)", below_old);
   for (int i = 0; i < 2; ++i) {
@@ -177,9 +200,10 @@ TEST(KMl, ConvergesFromBelowSync) {
     EXPECT_LT(honesty, 2.0) << "K" << i << " sigma too large against the spread";
   }
   // delta_rho's spread from below at 10 m: below the plain recursion's (which the over-trusted
-  // odometry damages) and within 2x the spread from above.
+  // odometry damages) and within 2x the paper's OF's from the same start (printed: 1.7x at
+  // 10 m; at 30 m both are 0.6 %, docs/nonsystematic.md).
   EXPECT_LT(below.sys_spread, 0.7 * below_old.sys_spread) << "delta_rho damaged from below";
-  EXPECT_LT(below.sys_spread, 2.0 * above.sys_spread) << "delta_rho damaged from below";
+  EXPECT_LT(below.sys_spread, 2.0 * below_of.sys_spread) << "delta_rho damaged from below";
 }
 
 // The reported covariance of K_w carries delta_d's uncertainty (the data fix K_w / delta_d^2):
@@ -208,4 +232,60 @@ TEST(KMl, CovarianceWithSystematicAddsDeltaDOnDiff) {
   KMaxLikelihood<SyncModel>::StateVec xs = KMaxLikelihood<SyncModel>::StateVec::Ones();
   KMaxLikelihood<SyncModel>::StateMat ps = KMaxLikelihood<SyncModel>::StateMat::Identity() * 0.01;
   EXPECT_EQ(sml.covarianceWithSystematic(xs, ps), sml.covariance());
+}
+
+// KMaxLikelihood::scan in its sparse form (the beams' rows are non-zero on the pose only: the
+// inverse of the pose block of P) against its dense form (the inverse of the whole P) on
+// scans made of scalar pose updates: the same score, information and sensitivities.
+TEST(KMl, ScanPoseFormMatchesWholeStateForm) {
+  using DiffEst = decltype(makeEstimator<double, DiffDrive>(std::declval<const PaperSim<DiffDrive<double>>&>(),
+                                                            std::declval<const FilterSetup&>(), NonSysStart::kSmall));
+  using Model = DiffEst::Model;
+  using Ml = KMaxLikelihood<Model>;
+  constexpr int N = Model::kStates;
+  SimConfig cfg;
+  FilterSetup setup;
+  PaperSim<DiffDrive<double>> sim(cfg, 5);
+  const DiffEst est = makeEstimator<double, DiffDrive>(sim, setup, NonSysStart::kSmall);
+  KMlConfig<double> c;
+  c.inflate = 0;
+  c.every = 1 << 30;
+  Ml sparse(c), dense(c);
+  sparse.init(sim.trueNonSys());
+  dense.init(sim.trueNonSys());
+  Ml::StateVec x = est.akf().state();
+  Ml::StateMat p = est.akf().covariance();
+  std::uint64_t seed = 12345;
+  auto uniform = [&seed]() {  // a small LCG: the test needs no particular distribution
+    seed = seed * 6364136223846793005ull + 1442695040888963407ull;
+    return double(seed >> 11) / double(1ull << 53) - 0.5;
+  };
+  for (int cycle = 0; cycle < 4; ++cycle) {
+    const Model::Input u{0.01 + 0.002 * cycle, 0.011};
+    sparse.predict(est.akf().model(), x, u);
+    dense.predict(est.akf().model(), x, u);
+    p.topLeftCorner<3, 3>() += 1e-6 * Eigen::Matrix3d::Identity();  // the prediction's growth
+    const Ml::StateMat p_prior = p;
+    const Ml::StateVec x_prior = x;
+    for (int b = 0; b < 5; ++b) {
+      Ml::StateVec h = Ml::StateVec::Zero();
+      for (int j = 0; j < 3; ++j) h[j] = uniform();
+      const double s = h.dot(p * h) + 1e-4;
+      const Ml::StateVec k = p * h / s;
+      x += k * (0.01 * uniform());
+      p -= k * (p * h).transpose();
+      p = (0.5 * (p + p.transpose())).eval();
+    }
+    ASSERT_TRUE(sparse.scan<3>(p_prior, x_prior, p, x));
+    ASSERT_TRUE(dense.scan<N>(p_prior, x_prior, p, x));
+    const double g = sparse.blockScore()[0], gd = dense.blockScore()[0];
+    const double i0 = sparse.blockInformation()(0, 0), id = dense.blockInformation()(0, 0);
+    std::printf("cycle %d: score %.9g / %.9g, information %.9g / %.9g\n", cycle, g, gd, i0, id);
+    EXPECT_NEAR(g, gd, 1e-6 * std::abs(gd) + 1e-9) << "cycle " << cycle;
+    EXPECT_NEAR(i0, id, 1e-6 * std::abs(id)) << "cycle " << cycle;
+    if (cycle > 0) {
+      EXPECT_GT(std::abs(gd), 0.0) << "the sensitivities must carry something";
+    }
+  }
+  EXPECT_EQ(sparse.counters().scans, 4u);
 }

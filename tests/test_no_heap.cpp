@@ -107,28 +107,36 @@ long allocationsInCycles() {
 }
 
 /// The same with the recursive ML estimator of K (k_ml.hpp) beside the AKF (MlDriver: the
-/// AKF's cycle with the sensitivities, the score and the K steps).
+/// AKF's cycle with the sensitivities, the score and the K steps), in both of its forms.
 template <typename S, template <typename> class DriveT>
-long allocationsInMlCycles() {
+long allocationsInMlCycles(bool per_beam) {
   SimConfig cfg;
   FilterSetup setup;
   PaperSim<DriveT<double>> sim(cfg, 3);
   auto est = makeEstimator<S, DriveT>(sim, setup, NonSysStart::kSmall);
-  MlDriver<decltype(est)> ml(est, KMlConfig<S>{});
+  KMlConfig<S> mc;
+  mc.per_beam = per_beam;
+  MlDriver<decltype(est)> ml(est, mc);
   const auto inputs = simulatedInputs<S, DriveT>(cfg, &sim, est);
   {
     Armed guard;
     for (const auto& in : inputs) ml.cycle(in.u, in.r);
   }
-  EXPECT_GT(ml.ml().counters().beams, 200u * 20u) << "the cycles must really fuse beams";
+  if (per_beam) {
+    EXPECT_GT(ml.ml().counters().beams, 200u * 20u) << "the cycles must really fuse beams";
+  } else {
+    EXPECT_EQ(ml.ml().counters().scans, 200u) << "the cycles must really fuse scans";
+  }
   EXPECT_EQ(ml.ml().counters().steps + ml.ml().counters().skipped, 20u) << "a K step every 10 cycles";
   return g_allocs.load();
 }
 
 }  // namespace
 
-TEST(NoHeap, MlCycleSyncDouble) { EXPECT_EQ((allocationsInMlCycles<double, SyncDrive>()), 0); }
-TEST(NoHeap, MlCycleDiffDouble) { EXPECT_EQ((allocationsInMlCycles<double, DiffDrive>()), 0); }
+TEST(NoHeap, MlCycleSyncDouble) { EXPECT_EQ((allocationsInMlCycles<double, SyncDrive>(false)), 0); }
+TEST(NoHeap, MlCycleDiffDouble) { EXPECT_EQ((allocationsInMlCycles<double, DiffDrive>(false)), 0); }
+TEST(NoHeap, MlCyclePerBeamSyncDouble) { EXPECT_EQ((allocationsInMlCycles<double, SyncDrive>(true)), 0); }
+TEST(NoHeap, MlCyclePerBeamDiffDouble) { EXPECT_EQ((allocationsInMlCycles<double, DiffDrive>(true)), 0); }
 
 TEST(NoHeap, HookDetectsAllocations) {
   long seen = 0;

@@ -169,6 +169,7 @@ PaperResult runPaperExperiment(const PaperOptions& opt) {
   PaperResult res;
   res.drive = opt.drive;
   res.of = opt.of;
+  res.ml = opt.ml;
   res.figure_eight = opt.sim.figure_eight;
   res.radius_m = opt.sim.radius;
   res.runs = opt.runs;
@@ -200,6 +201,13 @@ std::string summaryJson(const PaperResult& r) {
   j["drive"] = toString(r.drive);
   j["runs"] = r.runs;
   j["of"] = toString(r.of);
+  if (r.of == OfKind::kMl) {
+    j["ml"] = {{"every", r.ml.every},
+               {"reset_log", r.ml.reset_log},
+               {"inflate", r.ml.inflate},
+               {"inflate_cap", std::round(std::exp(r.ml.max_inflate_log) * 1000.0) / 1000.0},
+               {"form", r.ml.per_beam ? "beam" : "scan"}};
+  }
   j["path"] = r.figure_eight ? "eight" : "circle";
   j["radius_m"] = r.radius_m;
   j["wall_time_s"] = std::round(r.wall_time_s * 1000.0) / 1000.0;

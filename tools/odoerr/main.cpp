@@ -80,8 +80,8 @@ int runDiagnose(const std::string& log_path, const std::string& json_path, Diagn
 }
 
 int runPaper(const std::string& drive, int runs, const std::string& out, std::uint64_t seed,
-             int threads, bool plots, const std::string& pose_term, int window, const std::string& of, int ml_every, double ml_reset, double ml_inflate,
-             double ml_inflate_cap, const std::string& path, double radius) {
+             int threads, bool plots, const std::string& pose_term, int window, const std::string& of, const KMlConfig<double>& ml,
+             const std::string& path, double radius) {
   std::string err;
   const fs::path dir(out);
   if (!prepareOutDir(dir, &err)) {
@@ -95,7 +95,7 @@ int runPaper(const std::string& drive, int runs, const std::string& out, std::ui
   opt.threads = threads;
   opt.setup.of.window = window;
   opt.of = of == "ml" ? OfKind::kMl : OfKind::kPaper;
-  opt.ml.every = ml_every;
+  opt.ml = ml;
   if (path == "eight") {
     opt.sim.figure_eight = true;
     opt.sim.radius = 2.0;  // two 2 m lobes centred 2 m above and below the room's centre
@@ -109,9 +109,6 @@ int runPaper(const std::string& drive, int runs, const std::string& out, std::ui
     }
     opt.sim.radius = radius;
   }
-  opt.ml.reset_log = ml_reset;
-  opt.ml.inflate = ml_inflate;
-  opt.ml.max_inflate_log = std::log(ml_inflate_cap);
   opt.setup.of.pose_term = pose_term == "literal" ? PoseErrorTerm::kLiteral : PoseErrorTerm::kExpected;
   ProgressBar bar(std::string("paper ") + drive);
   opt.progress = [&bar](int d, int t) { bar(d, t); };
@@ -170,6 +167,7 @@ int main(int argc, char** argv) {
   double radius = 0;
   double ml_reset = KMlConfig<double>{}.reset_log;
   double ml_inflate = KMlConfig<double>{}.inflate;
+  std::string ml_form = "scan";
   double ml_inflate_cap = std::round(std::exp(KMlConfig<double>{}.max_inflate_log));
   paper->add_option("--drive", drive, "sync or diff")->check(CLI::IsMember({"sync", "diff"}));
   paper->add_option("--runs", runs, "Monte Carlo runs per start (> 0)")
@@ -204,6 +202,11 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   paper->add_option("--ml-inflate-cap", ml_inflate_cap, "ml: the inflation's cap, a factor on K (1..1000)")
       ->check(CLI::Range(1.0, 1000.0))
+      ->capture_default_str();
+  paper->add_option("--ml-form", ml_form,
+                    "ml: the likelihood's derivatives from each fused scan whole (scan, the default: O(N^3) a "
+                    "scan) or from each fused beam (beam: the reference, a second ray cast a beam)")
+      ->check(CLI::IsMember({"scan", "beam"}))
       ->capture_default_str();
   paper->add_flag("--no-plots", no_plots, "skip the PNG figures");
 
@@ -267,7 +270,13 @@ int main(int argc, char** argv) {
   if (const int rc = commands.runParsed(); rc >= 0) return rc;
 
   if (paper->parsed()) {
-    return runPaper(drive, runs, out, seed, threads, !no_plots, pose_term, window, of_kind, ml_every, ml_reset, ml_inflate, ml_inflate_cap, path, radius);
+    KMlConfig<double> mlc;
+    mlc.every = ml_every;
+    mlc.reset_log = ml_reset;
+    mlc.inflate = ml_inflate;
+    mlc.max_inflate_log = std::log(ml_inflate_cap);
+    mlc.per_beam = ml_form == "beam";
+    return runPaper(drive, runs, out, seed, threads, !no_plots, pose_term, window, of_kind, mlc, path, radius);
   }
   if (replay->parsed()) {
     Odolog log;

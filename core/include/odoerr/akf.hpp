@@ -80,6 +80,9 @@ class Akf {
   static constexpr int N = Model::kStates;
   using StateVec = typename Model::StateVec;
   using StateMat = typename Model::StateMat;
+  /// Columns of a beam's H that can be non-zero: the pose, or every state when measurement
+  /// effects are composed in.
+  static constexpr int kHCols = Model::kHasMeasurementEffects ? N : 3;
 
   Akf() = default;
   explicit Akf(const Model& m, const AkfConfig<S>& cfg = {})
@@ -550,8 +553,6 @@ class Akf {
     }
   }
 
-  /// Columns of a beam's H that can be non-zero.
-  static constexpr int kHCols = Model::kHasMeasurementEffects ? N : 3;
   /// Large models (the host's diagnosis composes the whole catalogue, ~47 states, and
   /// holds most of them: zero variance, zero rows) update only the states with variance
   /// and the non-zero columns of H. Every term left out is an exact zero, so the result is

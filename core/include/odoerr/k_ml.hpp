@@ -58,6 +58,11 @@ struct KMlConfig {
   /// The offset ends the inflation once K is known to about inflate_offset / inflate in log
   /// (15 %), so that K_f = K at the end of a drive.
   S inflate_offset = S(0.3);
+  /// The driver's form of the beam update: false (default) takes each fused scan whole
+  /// (scan(): O(N^3) a scan, no measurement rows); true takes every fused beam (beam(): a
+  /// second ray cast for its row, O(N^2) a beam), the reference the scan form is tested
+  /// against (test_k_ml.cpp).
+  bool per_beam = false;
 };
 
 struct KMlCounters {
@@ -66,6 +71,8 @@ struct KMlCounters {
   std::uint32_t skipped = 0;   ///< steps refused (information not positive definite)
   std::uint32_t beams = 0;
   std::uint32_t resets = 0;    ///< restarts of J and the sensitivities (reset_log)
+  std::uint32_t scans = 0;     ///< scans taken whole (scan())
+  std::uint32_t scans_skipped = 0;  ///< scans refused by scan(): P_prior not positive definite
 };
 
 template <typename ModelT>
@@ -184,6 +191,83 @@ class KMaxLikelihood {
       dp_[i] += -k * dph[i].transpose() - dph[i] * k.transpose() + ds[i] * (k * k.transpose());
     }
     ++counters_.beams;
+  }
+
+  /// One fused scan as a whole: the equivalent (to the linearisation) of beam() over its fused
+  /// beams, from what the AKF holds before and after the scan, without the beams' rows and
+  /// at a cost that does not grow with their number. With the scan's stacked rows H (non-zero
+  /// in the first Hc states only: the pose, Akf::kHCols), its innovation nu and variance S,
+  /// C = H^T S^-1 H and v = H^T S^-1 nu are zero outside those states, and there
+  ///   C_hh = P_hh^-1 (P_prior - P_post)_hh P_hh^-1,   v_h = P_hh^-1 (x_post - x_prior)_h
+  /// (P_post = P - P C P and x_post - x_prior = P v), with P = P_prior. Then, U = P_:h C_hh,
+  /// the scan's I - K_b H = I - U E_h^T (E_h^T takes the first Hc rows), and
+  ///   score_i += -1/2 tr(C_hh dP_i,hh) + 1/2 v_h^T dP_i,hh v_h + v_h^T xi_i,h
+  ///   info_ij += 1/2 tr(C_hh dP_i,hh C_hh dP_j,hh) + xi_i,h^T C_hh xi_j,h
+  ///   xi_i <- w - U w_h with w = xi_i + dP_i,:h v_h,   dP_i <- T - T_:h U^T with T = dP_i - U dP_i,h:
+  /// (the batch form of the innovation likelihood's derivatives: the sequential scalar
+  /// updates compose to the batch one). P_hh is inverted in correlation form (scaled by its
+  /// diagonal; a state without variance is left out). When it is not positive definite the
+  /// scan is skipped and the sensitivities restart (counted: scans_skipped); returns false.
+  template <int Hc = N>
+  bool scan(const StateMat& p_prior, const StateVec& x_prior, const StateMat& p_post, const StateVec& x_post) {
+    static_assert(Hc >= 3 && Hc <= N, "the measured states start with the pose");
+    using HMat = Eigen::Matrix<S, Hc, Hc>;
+    using HVec = Eigen::Matrix<S, Hc, 1>;
+    using NxH = Eigen::Matrix<S, N, Hc>;
+    HVec d;
+    HMat pt;
+    for (int j = 0; j < Hc; ++j) d[j] = p_prior(j, j) > S(0) ? S(1) / std::sqrt(p_prior(j, j)) : S(0);
+    for (int j = 0; j < Hc; ++j) {
+      for (int k = 0; k < Hc; ++k) pt(j, k) = d[j] * p_prior(j, k) * d[k];
+      if (d[j] == S(0)) pt(j, j) = S(1);
+    }
+    Eigen::LLT<HMat> llt(pt);
+    HMat b;
+    bool ok = llt.info() == Eigen::Success;
+    if (ok) {
+      for (int j = 0; j < Hc; ++j) b.col(j) = llt.solve(HVec::Unit(j));
+      b = d.asDiagonal() * b * d.asDiagonal();
+      ok = b.allFinite();
+    }
+    if (!ok) {
+      ++counters_.scans_skipped;
+      for (int i = 0; i < M; ++i) {
+        dp_[i].setZero();
+        xi_[i].setZero();
+      }
+      return false;
+    }
+    const HMat dph = p_prior.template topLeftCorner<Hc, Hc>() - p_post.template topLeftCorner<Hc, Hc>();
+    HMat c = b * dph * b;
+    c = S(0.5) * (c + c.transpose()).eval();
+    HVec dx = (x_post - x_prior).template head<Hc>();
+    dx[PoseIdx::kTheta] = wrapAngle(dx[PoseIdx::kTheta]);
+    const HVec v = b * dx;
+    const NxH u = p_prior.template leftCols<Hc>() * c;
+    HMat e[M];
+    for (int i = 0; i < M; ++i) {
+      const HMat dpp = dp_[i].template topLeftCorner<Hc, Hc>();
+      e[i] = c * dpp;
+      const HVec xh = xi_[i].template head<Hc>();
+      const HVec cxi = c * xh;
+      g_[i] += S(-0.5) * e[i].trace() + S(0.5) * v.dot(dpp * v) + v.dot(xh);
+      for (int j = 0; j <= i; ++j) {
+        // tr(E_i E_j) = sum_kl E_i(k, l) E_j(l, k)
+        const S t = (e[i].cwiseProduct(e[j].transpose())).sum();
+        const S add = S(0.5) * t + cxi.dot(xi_[j].template head<Hc>());
+        info_(i, j) += add;
+        if (j != i) info_(j, i) += add;
+      }
+    }
+    for (int i = 0; i < M; ++i) {
+      const StateVec w = xi_[i] + dp_[i].template leftCols<Hc>() * v;
+      xi_[i] = w - u * w.template head<Hc>();
+      const StateMat t = dp_[i] - u * dp_[i].template topRows<Hc>();
+      dp_[i] = t - t.template leftCols<Hc>() * u.transpose();
+      dp_[i] = S(0.5) * (dp_[i] + dp_[i].transpose()).eval();
+    }
+    ++counters_.scans;
+    return true;
   }
 
   /// At the end of a cycle: a K step every `every` cycles. Returns true when K moved.

@@ -11,10 +11,13 @@ namespace odoerr {
 
 /// The AKF driven by KMaxLikelihood instead of the OF: the same AKF, map and laser as `est`
 /// (copied), the same cycle (predict with the estimator's filter K, fuse the scan), with the
-/// likelihood's sensitivities carried beside it. Each fused beam's measurement row is
-/// recomputed by a second ray cast at the state before the beam (the core's cycle does not
-/// hand it out). Fixed-size, no heap (NoHeap.MlCycle*); the firmware's core_replay_ml image
-/// measures its cost (footprint.json, "of_ml").
+/// likelihood's sensitivities carried beside it. By default each fused scan is taken whole
+/// (KMaxLikelihood::scan, from the AKF's state and covariance before and after it: no
+/// measurement rows needed, O(N^3) a scan). With KMlConfig::per_beam each fused beam is taken
+/// (the reference): its measurement row is recomputed by a second ray cast at the state
+/// before the beam (the core's cycle does not hand it out). Fixed-size, no heap
+/// (NoHeap.MlCycle*); the firmware's core_replay_ml image measures its cost (footprint.json,
+/// "of_ml").
 template <typename Est>
 class MlDriver {
  public:
@@ -24,14 +27,20 @@ class MlDriver {
   using MlT = KMaxLikelihood<Model>;
   static constexpr int N = Model::kStates;
 
-  MlDriver(const Est& est, const KMlConfig<S>& cfg) : akf_(est.akf()), map_(est.map()), laser_(est.laser()), ml_(cfg) {
+  MlDriver(const Est& est, const KMlConfig<S>& cfg) : akf_(est.akf()), map_(est.map()), laser_(est.laser()), ml_(cfg), cfg_per_beam_(cfg.per_beam) {
     ml_.init(est.of().estimate());
   }
 
   void cycle(const typename Model::Input& u, const S* ranges) {
     ml_.predict(akf_.model(), akf_.state(), u);
     if (akf_.predict(u, ml_.filterK()) != Status::kOk) return;
-    if (ranges != nullptr) {
+    if (ranges != nullptr && !cfg_per_beam_) {
+      const typename AkfT::StateMat p_pre = akf_.covariance();
+      const typename AkfT::StateVec x_pre = akf_.state();
+      if (akf_.updateScan(map_, laser_, ranges).used > 0) {
+        (void)ml_.template scan<AkfT::kHCols>(p_pre, x_pre, akf_.covariance(), akf_.state());
+      }
+    } else if (ranges != nullptr) {
       typename AkfT::StateMat p_pre = akf_.covariance();
       typename AkfT::StateVec x_pre = akf_.state();
       auto observe = [&](const typename AkfT::BeamRecord& rec) {
@@ -61,7 +70,8 @@ class MlDriver {
   const MlT& ml() const { return ml_; }
   /// Restarts K (and its recursion) at k; for tests.
   void restartK(const typename MlT::KVec& k) { ml_.init(k); }
-  /// Sum of -1/2 (log s + nu^2/s) over the fused beams so far (the innovation likelihood).
+  /// Sum of -1/2 (log s + nu^2/s) over the fused beams so far (the innovation likelihood);
+  /// accumulated with KMlConfig::per_beam only.
   S logLikelihood() const { return loglik_; }
 
  private:
@@ -69,6 +79,7 @@ class MlDriver {
   typename Est::MapT map_;
   typename Est::LaserT laser_;
   MlT ml_;
+  bool cfg_per_beam_ = false;
   S loglik_ = S(0);
 };
 

@@ -49,6 +49,7 @@ struct CaseResult {
 struct PaperResult {
   DriveKind drive = DriveKind::kSync;
   OfKind of = OfKind::kPaper;
+  KMlConfig<double> ml{};  ///< the ml estimator's settings (summary.json "ml" when of is ml)
   bool figure_eight = false;  ///< the drive's path (SimConfig::figure_eight)
   double radius_m = 0;        ///< its radius (the circle's, or each lobe's)
   int runs = 0;
