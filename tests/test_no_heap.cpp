@@ -109,20 +109,20 @@ long allocationsInCycles() {
 /// The same with the recursive ML estimator of K (k_ml.hpp) beside the AKF (MlDriver: the
 /// AKF's cycle with the sensitivities, the score and the K steps), in both of its forms.
 template <typename S, template <typename> class DriveT>
-long allocationsInMlCycles(bool per_beam) {
+long allocationsInMlCycles(typename KMlConfig<S>::Form form) {
   SimConfig cfg;
   FilterSetup setup;
   PaperSim<DriveT<double>> sim(cfg, 3);
   auto est = makeEstimator<S, DriveT>(sim, setup, NonSysStart::kSmall);
   KMlConfig<S> mc;
-  mc.per_beam = per_beam;
+  mc.form = form;
   MlDriver<decltype(est)> ml(est, mc);
   const auto inputs = simulatedInputs<S, DriveT>(cfg, &sim, est);
   {
     Armed guard;
     for (const auto& in : inputs) ml.cycle(in.u, in.r);
   }
-  if (per_beam) {
+  if (form == KMlConfig<S>::Form::kBeam) {
     EXPECT_GT(ml.ml().counters().beams, 200u * 20u) << "the cycles must really fuse beams";
   } else {
     EXPECT_EQ(ml.ml().counters().scans, 200u) << "the cycles must really fuse scans";
@@ -133,10 +133,14 @@ long allocationsInMlCycles(bool per_beam) {
 
 }  // namespace
 
-TEST(NoHeap, MlCycleSyncDouble) { EXPECT_EQ((allocationsInMlCycles<double, SyncDrive>(false)), 0); }
-TEST(NoHeap, MlCycleDiffDouble) { EXPECT_EQ((allocationsInMlCycles<double, DiffDrive>(false)), 0); }
-TEST(NoHeap, MlCyclePerBeamSyncDouble) { EXPECT_EQ((allocationsInMlCycles<double, SyncDrive>(true)), 0); }
-TEST(NoHeap, MlCyclePerBeamDiffDouble) { EXPECT_EQ((allocationsInMlCycles<double, DiffDrive>(true)), 0); }
+using MlForm = KMlConfig<double>::Form;
+TEST(NoHeap, MlCycleSyncDouble) { EXPECT_EQ((allocationsInMlCycles<double, SyncDrive>(MlForm::kPose)), 0); }
+TEST(NoHeap, MlCycleDiffDouble) { EXPECT_EQ((allocationsInMlCycles<double, DiffDrive>(MlForm::kPose)), 0); }
+TEST(NoHeap, MlCycleWholeStateScanDiffDouble) {
+  EXPECT_EQ((allocationsInMlCycles<double, DiffDrive>(MlForm::kScan)), 0);
+}
+TEST(NoHeap, MlCyclePerBeamSyncDouble) { EXPECT_EQ((allocationsInMlCycles<double, SyncDrive>(MlForm::kBeam)), 0); }
+TEST(NoHeap, MlCyclePerBeamDiffDouble) { EXPECT_EQ((allocationsInMlCycles<double, DiffDrive>(MlForm::kBeam)), 0); }
 
 TEST(NoHeap, HookDetectsAllocations) {
   long seen = 0;

@@ -167,7 +167,7 @@ int main(int argc, char** argv) {
   double radius = 0;
   double ml_reset = KMlConfig<double>{}.reset_log;
   double ml_inflate = KMlConfig<double>{}.inflate;
-  std::string ml_form = "scan";
+  std::string ml_form = "pose";
   double ml_inflate_cap = std::round(std::exp(KMlConfig<double>{}.max_inflate_log));
   paper->add_option("--drive", drive, "sync or diff")->check(CLI::IsMember({"sync", "diff"}));
   paper->add_option("--runs", runs, "Monte Carlo runs per start (> 0)")
@@ -204,9 +204,10 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(1.0, 1000.0))
       ->capture_default_str();
   paper->add_option("--ml-form", ml_form,
-                    "ml: the likelihood's derivatives from each fused scan whole (scan, the default: O(N^3) a "
-                    "scan) or from each fused beam (beam: the reference, a second ray cast a beam)")
-      ->check(CLI::IsMember({"scan", "beam"}))
+                    "ml: each fused scan whole with the pose's sensitivities (pose, the default: the "
+                    "firmware's form), each fused scan whole with every state's (scan), or each fused "
+                    "beam (beam: the reference, a second ray cast a beam)")
+      ->check(CLI::IsMember({"pose", "scan", "beam"}))
       ->capture_default_str();
   paper->add_flag("--no-plots", no_plots, "skip the PNG figures");
 
@@ -275,7 +276,8 @@ int main(int argc, char** argv) {
     mlc.reset_log = ml_reset;
     mlc.inflate = ml_inflate;
     mlc.max_inflate_log = std::log(ml_inflate_cap);
-    mlc.per_beam = ml_form == "beam";
+    using Form = KMlConfig<double>::Form;
+    mlc.form = ml_form == "beam" ? Form::kBeam : ml_form == "scan" ? Form::kScan : Form::kPose;
     return runPaper(drive, runs, out, seed, threads, !no_plots, pose_term, window, of_kind, mlc, path, radius);
   }
   if (replay->parsed()) {

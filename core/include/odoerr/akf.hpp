@@ -105,6 +105,20 @@ class Akf {
   /// estimate (the OF's), which sets the process noise; dt = the cycle's duration (s), used
   /// only by effects that depend on speed (0 = unknown).
   [[nodiscard]] Status predict(const Input& u, const NonSysVec& k, S dt = S(0)) {
+    return predict(u, k, dt, NoPredictObserver{});
+  }
+
+  /// The Jacobians of a prediction, for an observer: f_pose, g_pose as in transition(), at
+  /// the state before it. NoPredictObserver reports nothing and compiles to nothing.
+  struct NoPredictObserver {
+    void operator()(const Eigen::Matrix<S, 3, N>&, const Eigen::Matrix<S, 3, Model::kNoise>&) const {}
+  };
+
+  /// predict that hands the prediction's Jacobians to `observe(f_pose, g_pose)` once it has
+  /// them (before P and x change; not on a bad input): KMaxLikelihood carries its
+  /// sensitivities through them instead of computing the transition again.
+  template <typename PredictObserver>
+  [[nodiscard]] Status predict(const Input& u, const NonSysVec& k, S dt, PredictObserver&& observe) {
     if (!Model::Drive::inputFinite(u) || !k.allFinite()) {
       ++counters_.bad_inputs;
       return Status::kBadInput;
@@ -132,6 +146,7 @@ class Akf {
     const Pose<S> next = transitionCS(model_, x_, u, ctx_, c, sn, &f_pose, &g_pose, &inc,
                                         Model::kHasNoiseEffects ? &d_inc : nullptr,
                                         Model::kHasEffects ? &drive_inc : nullptr);
+    observe(f_pose, g_pose);
     const typename Model::NoiseVec q = model_.drive.noiseVariance(u, k);
 
     // P' = F P F^T + G Q G^T, with F = [f_pose; 0 I] and G = [g_pose; 0].

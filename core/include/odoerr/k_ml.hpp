@@ -10,6 +10,9 @@
 //                score_i += -1/2 ds_i/s (1 - nu^2/s) + nu a_i / s
 //                info_ij += 1/2 ds_i ds_j / s^2 + a_i a_j / s
 //                xi_i <- xi_i - k a_i + dk_i nu,   dP_i <- (I - k h^T) dP_i (I - k h^T)^T
+// The beams of a scan compose into one batch update, so scan() takes a whole fused scan from
+// the AKF's P and x before and after it (no rows, O(Hc^3) a scan); the default form carries
+// the sensitivities of the pose only (KMlConfig::Form), which is what fits the firmware's cycle.
 // Every `every` cycles a Gauss-Newton (natural-gradient) step in theta = log K:
 //   J <- lambda J + diag(K) I_block diag(K),   theta += clamp(J^-1 diag(K) g_block)
 // with lambda rising to 1 (Ljung's forgetting schedule), so the recursion tends to the
@@ -58,11 +61,18 @@ struct KMlConfig {
   /// The offset ends the inflation once K is known to about inflate_offset / inflate in log
   /// (15 %), so that K_f = K at the end of a drive.
   S inflate_offset = S(0.3);
-  /// The driver's form of the beam update: false (default) takes each fused scan whole
-  /// (scan(): O(N^3) a scan, no measurement rows); true takes every fused beam (beam(): a
-  /// second ray cast for its row, O(N^2) a beam), the reference the scan form is tested
-  /// against (test_k_ml.cpp).
-  bool per_beam = false;
+  /// The driver's form of the update (MlDriver):
+  ///  - kPose (default): each fused scan whole (scan<Hc, Hc>), with the sensitivities carried
+  ///    on the measured states only (the pose): dP/dK and d xhat/dK of the systematic
+  ///    parameters are left out. The score stays an unbiased estimating equation (its weights
+  ///    depend on the past only); on the paper's drives it moves by under 0.1 of its standard
+  ///    deviation, and the figures at 30 m are as good or better (docs/nonsystematic.md).
+  ///    The firmware's form: O(Hc^3) a scan.
+  ///  - kScan: each fused scan whole, all sensitivities (scan<Hc, N>): the same score as kBeam.
+  ///  - kBeam: each fused beam (beam(): a second ray cast for its row, O(N^2) a beam): the
+  ///    reference the others are tested against (test_k_ml.cpp).
+  enum class Form { kPose, kScan, kBeam };
+  Form form = Form::kPose;
 };
 
 struct KMlCounters {
@@ -151,18 +161,77 @@ class KMaxLikelihood {
     Eigen::Matrix<S, 3, N> f_pose;
     Eigen::Matrix<S, 3, Model::kNoise> g_pose;
     (void)Akf<Model>::transition(model, x, u, &f_pose, &g_pose);
+    predict<N>(model, u, f_pose, g_pose);
+  }
+
+  /// The same with the prediction's Jacobians at hand (Akf::predict's observer hands them
+  /// out): dP_i <- F dP_i F^T + G dQ/dK_i G^T, xi_i <- F xi_i, with F = [f_pose; 0 I] and
+  /// G = [g_pose; 0], so only the pose rows and columns change. Ns: the states whose
+  /// sensitivities are carried (the first Ns; the others stay zero): N, or the measured
+  /// states (KMlConfig::Form::kPose).
+  template <int Ns = N>
+  ODOERR_NOINLINE void predict(const Model& model, const Input& u, const Eigen::Matrix<S, 3, N>& f_pose,
+                               const Eigen::Matrix<S, 3, Model::kNoise>& g_pose) {
+    static_assert(Ns >= 3 && Ns <= N, "the sensitivities start with the pose");
     for (int i = 0; i < M; ++i) {
       KVec e = KVec::Zero();
       e[i] = S(1);
       const auto dq = model.drive.noiseVariance(u, e);  // Q is linear in K
-      // F = [f_pose; 0 I]: only the pose rows/cols change.
-      const Eigen::Matrix<S, 3, N> fp = f_pose * dp_[i];
-      dp_[i].template topRows<3>() = fp;
-      dp_[i].template leftCols<3>() = fp.transpose();
-      dp_[i].template topLeftCorner<3, 3>() =
-          fp * f_pose.transpose() + g_pose * dq.asDiagonal() * g_pose.transpose();
-      const Eigen::Matrix<S, 3, 1> xp = f_pose * xi_[i];
-      xi_[i].template head<3>() = xp;
+      StateMat& dp = dp_[i];
+      // F_pose's pose columns are I plus the heading column (a, b, 0) (Akf::transitionCS
+      // builds them so): fp = F_pose dP (3 x Ns) takes the rows of dP with a and b and the
+      // parameter columns; then the pose rows and columns, then the pose block
+      // fp F_pose^T + G dQ G^T (symmetric: the upper triangle, mirrored).
+      const S fa = f_pose(0, 2);
+      const S fb = f_pose(1, 2);
+      S fp[3][Ns];
+#pragma GCC unroll 16
+      for (int k = 0; k < Ns; ++k) {
+        S r0 = dp(0, k) + fa * dp(2, k);
+        S r1 = dp(1, k) + fb * dp(2, k);
+        S r2 = dp(2, k);
+#pragma GCC unroll 16
+        for (int l = 3; l < Ns; ++l) {
+          r0 += f_pose(0, l) * dp(l, k);
+          r1 += f_pose(1, l) * dp(l, k);
+          r2 += f_pose(2, l) * dp(l, k);
+        }
+        fp[0][k] = r0;
+        fp[1][k] = r1;
+        fp[2][k] = r2;
+      }
+#pragma GCC unroll 16
+      for (int r = 0; r < 3; ++r) {
+#pragma GCC unroll 16
+        for (int k = 3; k < Ns; ++k) {
+          dp(r, k) = fp[r][k];
+          dp(k, r) = fp[r][k];
+        }
+      }
+#pragma GCC unroll 16
+      for (int r = 0; r < 3; ++r) {
+#pragma GCC unroll 16
+        for (int k = r; k < 3; ++k) {
+          // (fp F_pose^T)(r, k) = fp[r][k] + F_pose(k, 2) fp[r][2] (k < 2) + parameter columns
+          S acc = fp[r][k];
+          if (k == 0) acc += fa * fp[r][2];
+          if (k == 1) acc += fb * fp[r][2];
+#pragma GCC unroll 16
+          for (int l = 3; l < Ns; ++l) acc += fp[r][l] * f_pose(k, l);
+#pragma GCC unroll 16
+          for (int l = 0; l < Model::kNoise; ++l) acc += g_pose(r, l) * dq[l] * g_pose(k, l);
+          dp(r, k) = acc;
+          dp(k, r) = acc;
+        }
+      }
+      const S* xv = xi_[i].data();
+      S xp[3] = {xv[0] + fa * xv[2], xv[1] + fb * xv[2], xv[2]};
+#pragma GCC unroll 16
+      for (int r = 0; r < 3; ++r) {
+#pragma GCC unroll 16
+        for (int l = 3; l < Ns; ++l) xp[r] += f_pose(r, l) * xv[l];
+      }
+      for (int r = 0; r < 3; ++r) xi_[i][r] = xp[r];
     }
   }
 
@@ -203,31 +272,70 @@ class KMaxLikelihood {
   /// the scan's I - K_b H = I - U E_h^T (E_h^T takes the first Hc rows), and
   ///   score_i += -1/2 tr(C_hh dP_i,hh) + 1/2 v_h^T dP_i,hh v_h + v_h^T xi_i,h
   ///   info_ij += 1/2 tr(C_hh dP_i,hh C_hh dP_j,hh) + xi_i,h^T C_hh xi_j,h
-  ///   xi_i <- w - U w_h with w = xi_i + dP_i,:h v_h,   dP_i <- T - T_:h U^T with T = dP_i - U dP_i,h:
+  ///   xi_i <- w - U w_h with w = xi_i + dP_i,:h v_h,   dP_i <- dP_i - U R^T - R U^T
+  ///   with R = dP_i,:h - 1/2 U dP_i,hh
   /// (the batch form of the innovation likelihood's derivatives: the sequential scalar
-  /// updates compose to the batch one). P_hh is inverted in correlation form (scaled by its
-  /// diagonal; a state without variance is left out). When it is not positive definite the
+  /// updates compose to the batch one). P_hh is inverted by cofactors (the pose, Hc = 3) or in
+  /// correlation form (scaled by its diagonal; a state without variance is left out; Hc > 3).
+  /// When it is not positive definite the
   /// scan is skipped and the sensitivities restart (counted: scans_skipped); returns false.
-  template <int Hc = N>
-  bool scan(const StateMat& p_prior, const StateVec& x_prior, const StateMat& p_post, const StateVec& x_post) {
+  /// Ns (Hc..N): the states whose sensitivities are carried, as in predict<Ns>: with Ns = Hc
+  /// (KMlConfig::Form::kPose) the updates of dP and xi take their measured block only.
+  /// It reads P_prior's first Hc columns and x_prior's first Hc entries only, so the caller
+  /// keeps just those (`p_prior`, `x_prior` here).
+  template <int Hc = N, int Ns = N>
+  ODOERR_NOINLINE bool scan(const Eigen::Matrix<S, N, Hc>& p_prior, const Eigen::Matrix<S, Hc, 1>& x_prior,
+                            const StateMat& p_post, const StateVec& x_post) {
     static_assert(Hc >= 3 && Hc <= N, "the measured states start with the pose");
+    static_assert(Ns >= Hc && Ns <= N, "the sensitivities cover the measured states");
     using HMat = Eigen::Matrix<S, Hc, Hc>;
     using HVec = Eigen::Matrix<S, Hc, 1>;
-    using NxH = Eigen::Matrix<S, N, Hc>;
-    HVec d;
-    HMat pt;
-    for (int j = 0; j < Hc; ++j) d[j] = p_prior(j, j) > S(0) ? S(1) / std::sqrt(p_prior(j, j)) : S(0);
-    for (int j = 0; j < Hc; ++j) {
-      for (int k = 0; k < Hc; ++k) pt(j, k) = d[j] * p_prior(j, k) * d[k];
-      if (d[j] == S(0)) pt(j, j) = S(1);
-    }
-    Eigen::LLT<HMat> llt(pt);
+    using NxH = Eigen::Matrix<S, Ns, Hc>;
+    // B = P_hh^-1. The loops below are written out on fixed sizes: the same arithmetic
+    // through Eigen's expressions cost about twice as much on the M4F (measured,
+    // docs/nonsystematic.md).
     HMat b;
-    bool ok = llt.info() == Eigen::Success;
-    if (ok) {
-      for (int j = 0; j < Hc; ++j) b.col(j) = llt.solve(HVec::Unit(j));
-      b = d.asDiagonal() * b * d.asDiagonal();
-      ok = b.allFinite();
+    bool ok = false;
+    if constexpr (Hc == 3) {
+      // The pose block (m^2 and rad^2, of like size): positive definite iff its leading
+      // minors are (Sylvester), which also refuses a NaN; then the inverse by cofactors.
+      // Written out: Eigen's LU module, included here, changed how GCC laid out the paper's
+      // cycle in the firmware (+540 instructions, measured).
+      const auto& pt = p_prior;
+      const S c00 = pt(1, 1) * pt(2, 2) - pt(1, 2) * pt(1, 2);
+      const S c01 = pt(0, 2) * pt(1, 2) - pt(0, 1) * pt(2, 2);
+      const S c02 = pt(0, 1) * pt(1, 2) - pt(0, 2) * pt(1, 1);
+      const S det = pt(0, 0) * c00 + pt(0, 1) * c01 + pt(0, 2) * c02;
+      const S m2 = pt(0, 0) * pt(1, 1) - pt(0, 1) * pt(0, 1);
+      ok = pt(0, 0) > S(0) && m2 > S(0) && det > S(0);
+      if (ok) {
+        const S inv = S(1) / det;
+        b(0, 0) = c00 * inv;
+        b(0, 1) = b(1, 0) = c01 * inv;
+        b(0, 2) = b(2, 0) = c02 * inv;
+        b(1, 1) = (pt(0, 0) * pt(2, 2) - pt(0, 2) * pt(0, 2)) * inv;
+        b(1, 2) = b(2, 1) = (pt(0, 1) * pt(0, 2) - pt(0, 0) * pt(1, 2)) * inv;
+        b(2, 2) = m2 * inv;
+      }
+    } else {
+      // Every state: in correlation form (scaled by the diagonal; a state without variance,
+      // held, is left out), because the parameters' variances span many decades.
+      S d[Hc];
+      HMat pt;
+      for (int j = 0; j < Hc; ++j) d[j] = p_prior(j, j) > S(0) ? S(1) / std::sqrt(p_prior(j, j)) : S(0);
+      for (int j = 0; j < Hc; ++j) {
+        for (int k = 0; k < Hc; ++k) pt(j, k) = d[j] * p_prior(j, k) * d[k];
+        if (d[j] == S(0)) pt(j, j) = S(1);
+      }
+      Eigen::LLT<HMat> llt(pt);
+      ok = llt.info() == Eigen::Success;
+      if (ok) {
+        for (int j = 0; j < Hc; ++j) b.col(j) = llt.solve(HVec::Unit(j));
+        for (int j = 0; j < Hc; ++j) {
+          for (int k = 0; k < Hc; ++k) b(j, k) *= d[j] * d[k];
+        }
+        ok = b.allFinite();
+      }
     }
     if (!ok) {
       ++counters_.scans_skipped;
@@ -237,34 +345,138 @@ class KMaxLikelihood {
       }
       return false;
     }
-    const HMat dph = p_prior.template topLeftCorner<Hc, Hc>() - p_post.template topLeftCorner<Hc, Hc>();
-    HMat c = b * dph * b;
-    c = S(0.5) * (c + c.transpose()).eval();
-    HVec dx = (x_post - x_prior).template head<Hc>();
+    // C = B (P_prior - P_post)_hh B (symmetric: the upper triangle, mirrored), v = B dx.
+    HMat bd;  // B (P_prior - P_post)_hh
+#pragma GCC unroll 16
+    for (int j = 0; j < Hc; ++j) {
+#pragma GCC unroll 16
+      for (int k = 0; k < Hc; ++k) {
+        S acc = S(0);
+#pragma GCC unroll 16
+        for (int l = 0; l < Hc; ++l) acc += b(j, l) * (p_prior(l, k) - p_post(l, k));
+        bd(j, k) = acc;
+      }
+    }
+    HMat c;
+#pragma GCC unroll 16
+    for (int j = 0; j < Hc; ++j) {
+#pragma GCC unroll 16
+      for (int k = j; k < Hc; ++k) {
+        S acc = S(0);
+#pragma GCC unroll 16
+        for (int l = 0; l < Hc; ++l) acc += bd(j, l) * b(l, k);
+        c(j, k) = acc;
+        c(k, j) = acc;
+      }
+    }
+    S dx[Hc];
+#pragma GCC unroll 16
+    for (int j = 0; j < Hc; ++j) dx[j] = x_post[j] - x_prior[j];
     dx[PoseIdx::kTheta] = wrapAngle(dx[PoseIdx::kTheta]);
-    const HVec v = b * dx;
-    const NxH u = p_prior.template leftCols<Hc>() * c;
-    HMat e[M];
+    HVec v;
+#pragma GCC unroll 16
+    for (int j = 0; j < Hc; ++j) {
+      S acc = S(0);
+#pragma GCC unroll 16
+      for (int l = 0; l < Hc; ++l) acc += b(j, l) * dx[l];
+      v[j] = acc;
+    }
+    // U = P_:h C (the rows of the carried states). With the measured states' only
+    // (Ns = Hc), U = P_hh B (P_prior - P_post)_hh B = (P_prior - P_post)_hh B = (B (...))^T.
+    NxH u;
+    if constexpr (Ns == Hc) {
+      u = bd.transpose();
+    } else {
+#pragma GCC unroll 16
+      for (int j = 0; j < Ns; ++j) {
+#pragma GCC unroll 16
+        for (int k = 0; k < Hc; ++k) {
+          S acc = S(0);
+#pragma GCC unroll 16
+          for (int l = 0; l < Hc; ++l) acc += p_prior(j, l) * c(l, k);
+          u(j, k) = acc;
+        }
+      }
+    }
+    HMat e[M];   // C dP_i,hh
+    HVec cx[M];  // C xi_i,h
     for (int i = 0; i < M; ++i) {
-      const HMat dpp = dp_[i].template topLeftCorner<Hc, Hc>();
-      e[i] = c * dpp;
-      const HVec xh = xi_[i].template head<Hc>();
-      const HVec cxi = c * xh;
-      g_[i] += S(-0.5) * e[i].trace() + S(0.5) * v.dot(dpp * v) + v.dot(xh);
-      for (int j = 0; j <= i; ++j) {
-        // tr(E_i E_j) = sum_kl E_i(k, l) E_j(l, k)
-        const S t = (e[i].cwiseProduct(e[j].transpose())).sum();
-        const S add = S(0.5) * t + cxi.dot(xi_[j].template head<Hc>());
-        info_(i, j) += add;
-        if (j != i) info_(j, i) += add;
+      const StateMat& dp = dp_[i];
+      S tr = S(0);
+      S vdv = S(0);
+      S vx = S(0);
+#pragma GCC unroll 16
+      for (int j = 0; j < Hc; ++j) {
+        S acc_x = S(0);
+        S acc_v = S(0);
+#pragma GCC unroll 16
+        for (int k = 0; k < Hc; ++k) {
+          S acc = S(0);
+#pragma GCC unroll 16
+          for (int l = 0; l < Hc; ++l) acc += c(j, l) * dp(l, k);
+          e[i](j, k) = acc;
+          acc_x += c(j, k) * xi_[i][k];
+          acc_v += dp(j, k) * v[k];
+        }
+        cx[i][j] = acc_x;
+        tr += e[i](j, j);
+        vdv += v[j] * acc_v;
+        vx += v[j] * xi_[i][j];
+      }
+      g_[i] += S(-0.5) * tr + S(0.5) * vdv + vx;
+      for (int m = 0; m <= i; ++m) {
+        // 1/2 tr(E_i E_m) + xi_i,h^T C xi_m,h; tr(E_i E_m) = sum_jk E_i(j, k) E_m(k, j)
+        S t = S(0);
+        S xx = S(0);
+#pragma GCC unroll 16
+        for (int j = 0; j < Hc; ++j) {
+#pragma GCC unroll 16
+          for (int k = 0; k < Hc; ++k) t += e[i](j, k) * e[m](k, j);
+          xx += cx[i][j] * xi_[m][j];
+        }
+        const S add = S(0.5) * t + xx;
+        info_(i, m) += add;
+        if (m != i) info_(m, i) += add;
       }
     }
     for (int i = 0; i < M; ++i) {
-      const StateVec w = xi_[i] + dp_[i].template leftCols<Hc>() * v;
-      xi_[i] = w - u * w.template head<Hc>();
-      const StateMat t = dp_[i] - u * dp_[i].template topRows<Hc>();
-      dp_[i] = t - t.template leftCols<Hc>() * u.transpose();
-      dp_[i] = S(0.5) * (dp_[i] + dp_[i].transpose()).eval();
+      // With Z = dP_:h: (I - U E_h^T) dP (I - U E_h^T)^T = dP - U Z^T - Z U^T + U dP_hh U^T
+      //                                                = dP - U R^T - R U^T, R = Z - 1/2 U dP_hh
+      // (a symmetric update: the upper triangle, mirrored). xi <- w - U w_h, w = xi + Z v.
+      StateMat& dp = dp_[i];
+      NxH r;
+      S w[Ns];
+#pragma GCC unroll 16
+      for (int j = 0; j < Ns; ++j) {
+        S acc_w = xi_[i][j];
+#pragma GCC unroll 16
+        for (int k = 0; k < Hc; ++k) {
+          S acc = S(0);
+#pragma GCC unroll 16
+          for (int l = 0; l < Hc; ++l) acc += u(j, l) * dp(l, k);
+          r(j, k) = dp(j, k) - S(0.5) * acc;
+          acc_w += dp(j, k) * v[k];
+        }
+        w[j] = acc_w;
+      }
+#pragma GCC unroll 16
+      for (int j = 0; j < Ns; ++j) {
+        S acc = w[j];
+#pragma GCC unroll 16
+        for (int k = 0; k < Hc; ++k) acc -= u(j, k) * w[k];
+        xi_[i][j] = acc;
+      }
+#pragma GCC unroll 16
+      for (int row = 0; row < Ns; ++row) {
+#pragma GCC unroll 16
+        for (int col = row; col < Ns; ++col) {
+          S acc = dp(row, col);
+#pragma GCC unroll 16
+          for (int k = 0; k < Hc; ++k) acc -= u(row, k) * r(col, k) + r(row, k) * u(col, k);
+          dp(row, col) = acc;
+          dp(col, row) = acc;
+        }
+      }
     }
     ++counters_.scans;
     return true;
@@ -274,6 +486,12 @@ class KMaxLikelihood {
   bool endCycle() {
     if (++cycles_ < cfg_.every) return false;
     cycles_ = 0;
+    return step();
+  }
+
+ private:
+  /// The K step of endCycle (out of line: it runs one cycle in `every`).
+  ODOERR_NOINLINE bool step() {
     const KMat dk = kf_.asDiagonal();
     const KMat info_t = dk * info_ * dk;
     KVec g_t = dk * g_;
@@ -321,7 +539,6 @@ class KMaxLikelihood {
     return true;
   }
 
- private:
   /// J^-1 from its factor (info() checked by the caller), one column at a time: a solve with
   /// a matrix right-hand side goes through Eigen's blocked triangular solve, which refers
   /// to malloc, and the firmware's link refuses that (heap trap).

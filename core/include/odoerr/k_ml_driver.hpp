@@ -11,13 +11,14 @@ namespace odoerr {
 
 /// The AKF driven by KMaxLikelihood instead of the OF: the same AKF, map and laser as `est`
 /// (copied), the same cycle (predict with the estimator's filter K, fuse the scan), with the
-/// likelihood's sensitivities carried beside it. By default each fused scan is taken whole
-/// (KMaxLikelihood::scan, from the AKF's state and covariance before and after it: no
-/// measurement rows needed, O(N^3) a scan). With KMlConfig::per_beam each fused beam is taken
-/// (the reference): its measurement row is recomputed by a second ray cast at the state
-/// before the beam (the core's cycle does not hand it out). Fixed-size, no heap
-/// (NoHeap.MlCycle*); the firmware's core_replay_ml image measures its cost (footprint.json,
-/// "of_ml").
+/// likelihood's sensitivities carried beside it in the form KMlConfig::form names. The scan
+/// forms (kPose, the default, and kScan) take each fused scan whole, from the AKF's state and
+/// covariance before and after it (KMaxLikelihood::scan), and the prediction's Jacobians
+/// from the AKF's own predict: no measurement rows, no transition computed twice. kBeam, the
+/// reference, takes each fused beam, whose row it recomputes by a second ray cast at the
+/// state before the beam (the core's cycle does not hand it out). Fixed-size, no heap
+/// (NoHeap.MlCycle*); the firmware's core_replay_ml image measures the default form's cost
+/// (footprint.json, "of_ml").
 template <typename Est>
 class MlDriver {
  public:
@@ -27,41 +28,37 @@ class MlDriver {
   using MlT = KMaxLikelihood<Model>;
   static constexpr int N = Model::kStates;
 
-  MlDriver(const Est& est, const KMlConfig<S>& cfg) : akf_(est.akf()), map_(est.map()), laser_(est.laser()), ml_(cfg), cfg_per_beam_(cfg.per_beam) {
+  MlDriver(const Est& est, const KMlConfig<S>& cfg) : akf_(est.akf()), map_(est.map()), laser_(est.laser()), ml_(cfg), form_(cfg.form) {
     ml_.init(est.of().estimate());
   }
 
   void cycle(const typename Model::Input& u, const S* ranges) {
-    ml_.predict(akf_.model(), akf_.state(), u);
-    if (akf_.predict(u, ml_.filterK()) != Status::kOk) return;
-    if (ranges != nullptr && !cfg_per_beam_) {
-      const typename AkfT::StateMat p_pre = akf_.covariance();
-      const typename AkfT::StateVec x_pre = akf_.state();
-      if (akf_.updateScan(map_, laser_, ranges).used > 0) {
-        (void)ml_.template scan<AkfT::kHCols>(p_pre, x_pre, akf_.covariance(), akf_.state());
+    using Form = typename KMlConfig<S>::Form;
+    constexpr int Hc = AkfT::kHCols;
+    auto sensitivities = [&](const Eigen::Matrix<S, 3, N>& f, const Eigen::Matrix<S, 3, Model::kNoise>& g) {
+      if (form_ == Form::kPose) {
+        ml_.template predict<Hc>(akf_.model(), u, f, g);
+      } else {
+        ml_.template predict<N>(akf_.model(), u, f, g);
       }
-    } else if (ranges != nullptr) {
-      typename AkfT::StateMat p_pre = akf_.covariance();
-      typename AkfT::StateVec x_pre = akf_.state();
-      auto observe = [&](const typename AkfT::BeamRecord& rec) {
-        if (rec.status != Status::kOk) return;
-        Eigen::Matrix<S, 1, 3> h3;
-        S range = S(0);
-        typename AkfT::StateVec h = AkfT::StateVec::Zero();
-        if (AkfT::expectedRange(map_, laser_, x_pre[0], x_pre[1], std::cos(x_pre[2]), std::sin(x_pre[2]), rec.beam,
-                                S(0), &range, &h3) == Status::kOk) {
-          h.template head<3>() = h3.transpose();
-          const S nu = rec.measured - rec.predicted;
-          ml_.beam(h, p_pre, nu, rec.variance);
-          loglik_ += S(-0.5) * (std::log(rec.variance) + nu * nu / rec.variance);
+    };
+    if (akf_.predict(u, ml_.filterK(), S(0), sensitivities) != Status::kOk) return;
+    if (ranges != nullptr) {
+      if (form_ == Form::kBeam) {
+        fuseBeams(ranges);
+      } else {
+        // What KMaxLikelihood::scan reads of the state before the scan: P's first Hc
+        // columns and x's first Hc entries.
+        const Eigen::Matrix<S, N, Hc> p_pre = akf_.covariance().template leftCols<Hc>();
+        const Eigen::Matrix<S, Hc, 1> x_pre = akf_.state().template head<Hc>();
+        if (akf_.updateScan(map_, laser_, ranges).used > 0) {
+          if (form_ == Form::kPose) {
+            (void)ml_.template scan<Hc, Hc>(p_pre, x_pre, akf_.covariance(), akf_.state());
+          } else {
+            (void)ml_.template scan<Hc, N>(p_pre, x_pre, akf_.covariance(), akf_.state());
+          }
         }
-        const auto& p = akf_.covariance();  // upper triangle current within a scan
-        for (int j = 0; j < N; ++j) {
-          for (int k = j; k < N; ++k) p_pre(j, k) = p_pre(k, j) = p(j, k);
-        }
-        x_pre = akf_.state();
-      };
-      (void)akf_.updateScan(map_, laser_, ranges, observe);
+      }
     }
     ml_.endCycle();
   }
@@ -71,15 +68,41 @@ class MlDriver {
   /// Restarts K (and its recursion) at k; for tests.
   void restartK(const typename MlT::KVec& k) { ml_.init(k); }
   /// Sum of -1/2 (log s + nu^2/s) over the fused beams so far (the innovation likelihood);
-  /// accumulated with KMlConfig::per_beam only.
+  /// accumulated with KMlConfig::Form::kBeam only.
   S logLikelihood() const { return loglik_; }
 
  private:
+  /// The kBeam form's scan: every fused beam's row by a second ray cast at the state before
+  /// it (out of line: the firmware's form is kPose, and its cycle stays compact).
+  ODOERR_NOINLINE void fuseBeams(const S* ranges) {
+    typename AkfT::StateMat p_pre = akf_.covariance();
+    typename AkfT::StateVec x_pre = akf_.state();
+    auto observe = [&](const typename AkfT::BeamRecord& rec) {
+      if (rec.status != Status::kOk) return;
+      Eigen::Matrix<S, 1, 3> h3;
+      S range = S(0);
+      typename AkfT::StateVec h = AkfT::StateVec::Zero();
+      if (AkfT::expectedRange(map_, laser_, x_pre[0], x_pre[1], std::cos(x_pre[2]), std::sin(x_pre[2]), rec.beam,
+                              S(0), &range, &h3) == Status::kOk) {
+        h.template head<3>() = h3.transpose();
+        const S nu = rec.measured - rec.predicted;
+        ml_.beam(h, p_pre, nu, rec.variance);
+        loglik_ += S(-0.5) * (std::log(rec.variance) + nu * nu / rec.variance);
+      }
+      const auto& p = akf_.covariance();  // upper triangle current within a scan
+      for (int j = 0; j < N; ++j) {
+        for (int k = j; k < N; ++k) p_pre(j, k) = p_pre(k, j) = p(j, k);
+      }
+      x_pre = akf_.state();
+    };
+    (void)akf_.updateScan(map_, laser_, ranges, observe);
+  }
+
   AkfT akf_;
   typename Est::MapT map_;
   typename Est::LaserT laser_;
   MlT ml_;
-  bool cfg_per_beam_ = false;
+  typename KMlConfig<S>::Form form_;
   S loglik_ = S(0);
 };
 

@@ -24,6 +24,12 @@ inline const char* toString(NonSysStart s) { return s == NonSysStart::kSmall ? "
 enum class OfKind { kPaper, kMl };
 
 inline const char* toString(OfKind k) { return k == OfKind::kPaper ? "paper" : "ml"; }
+/// The ML recursion's form as --ml-form names it.
+template <typename S>
+const char* toString(typename KMlConfig<S>::Form f) {
+  using Form = typename KMlConfig<S>::Form;
+  return f == Form::kPose ? "pose" : f == Form::kScan ? "scan" : "beam";
+}
 
 /// MlDriver (the AKF driven by the recursive ML estimator of K) lives in the core
 /// (odoerr/k_ml_driver.hpp), so that the firmware image can measure it too.
