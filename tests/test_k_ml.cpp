@@ -306,3 +306,43 @@ TEST(KMl, ScanPoseFormMatchesWholeStateForm) {
   }
   EXPECT_EQ(sparse.counters().scans, 4u);
 }
+
+// A scan whose P before it is not positive definite (a NaN, or a singular pose block) is
+// refused and counted, and the sensitivities restart; the score and information stay finite.
+TEST(KMl, ScanRefusesABadCovariance) {
+  using DiffEst = decltype(makeEstimator<double, DiffDrive>(std::declval<const PaperSim<DiffDrive<double>>&>(),
+                                                            std::declval<const FilterSetup&>(), NonSysStart::kSmall));
+  using Model = DiffEst::Model;
+  using Ml = KMaxLikelihood<Model>;
+  constexpr int N = Model::kStates;
+  SimConfig cfg;
+  FilterSetup setup;
+  PaperSim<DiffDrive<double>> sim(cfg, 5);
+  const DiffEst est = makeEstimator<double, DiffDrive>(sim, setup, NonSysStart::kSmall);
+  KMlConfig<double> c;
+  c.inflate = 0;
+  Ml ml(c);
+  ml.init(sim.trueNonSys());
+  const Ml::StateVec x = est.akf().state();
+  const Ml::StateMat p = est.akf().covariance();
+  ml.predict(est.akf().model(), x, Model::Input{0.01, 0.011});
+  Ml::StateMat p_post = p;
+  p_post.topLeftCorner<3, 3>() *= 0.5;
+  Eigen::Matrix<double, N, 3> bad = p.leftCols<3>();
+  bad(1, 1) = std::nan("");
+  EXPECT_FALSE((ml.scan<3, 3>(bad, x.head<3>(), p_post, x)));
+  Eigen::Matrix<double, N, 3> singular = p.leftCols<3>();
+  singular.row(1) = singular.row(0);  // two equal rows: the pose block is singular
+  singular(0, 1) = singular(0, 0);
+  singular(1, 0) = singular(0, 0);
+  singular(1, 1) = singular(0, 0);
+  EXPECT_FALSE((ml.scan<3, 3>(singular, x.head<3>(), p_post, x)));
+  EXPECT_EQ(ml.counters().scans_skipped, 2u);
+  EXPECT_EQ(ml.counters().scans, 0u);
+  EXPECT_TRUE(ml.blockScore().allFinite());
+  EXPECT_EQ(ml.blockScore()[0], 0.0) << "a refused scan adds nothing";
+  // The sensitivities restarted: the next good scan scores nothing (dP and xi are zero).
+  EXPECT_TRUE((ml.scan<3, 3>(Eigen::Matrix<double, N, 3>(p.leftCols<3>()), x.head<3>(), p_post, x)));
+  EXPECT_EQ(ml.blockScore()[0], 0.0);
+  EXPECT_EQ(ml.counters().scans, 1u);
+}
