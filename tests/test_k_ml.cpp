@@ -34,7 +34,7 @@ void checkScore(double tol) {
   mc.reset_log = 0;
   using KMat = Eigen::Matrix<double, D::kNonSys, D::kNonSys>;
   KMat info_last = KMat::Zero();
-  using Form = KMlConfig<double>::Form;
+  using Form = KMlForm;
   auto replay = [&](const typename D::NonSysVec& k, double* ll, typename D::NonSysVec* score, int* used,
                     Form form = Form::kBeam) {
     auto est = makeEstimator<double, DriveT>(sim, setup, NonSysStart::kSmall);
@@ -248,20 +248,39 @@ TEST(KMl, CovarianceWithSystematicAddsDeltaDOnDiff) {
   EXPECT_EQ(sml.covarianceWithSystematic(xs, ps), sml.covariance());
 }
 
+namespace {
+
+/// The diff model's estimator at its start and a way to carry KMaxLikelihood's sensitivities
+/// through a prediction (the Jacobians from Akf::transition), for the scan tests below.
+struct DiffScanBench {
+  using Est = decltype(makeEstimator<double, DiffDrive>(std::declval<const PaperSim<DiffDrive<double>>&>(),
+                                                        std::declval<const FilterSetup&>(), NonSysStart::kSmall));
+  using Model = Est::Model;
+  using Ml = KMaxLikelihood<Model>;
+  static constexpr int N = Model::kStates;
+  SimConfig cfg;
+  FilterSetup setup;
+  PaperSim<DiffDrive<double>> sim{cfg, 5};
+  Est est = makeEstimator<double, DiffDrive>(sim, setup, NonSysStart::kSmall);
+
+  static void predict(Ml* ml, const Model& model, const Ml::StateVec& x, const Model::Input& u) {
+    Eigen::Matrix<double, 3, N> f;
+    Eigen::Matrix<double, 3, Model::kNoise> g;
+    (void)Akf<Model>::transition(model, x, u, &f, &g);
+    ml->predict<N>(model, u, f, g);
+  }
+};
+
+/// The scan tests' fixture.
+class KMlScan : public ::testing::Test, protected DiffScanBench {};
+
+}  // namespace
+
 // KMaxLikelihood::scan in its sparse form (the beams' rows are non-zero on the pose only: the
 // closed-form inverse of the pose block of P) against its dense form (the Cholesky inverse of
 // the whole P), both carrying every state's sensitivities, on scans made of scalar pose
 // updates: the same score, information and sensitivities.
-TEST(KMl, ScanPoseFormMatchesWholeStateForm) {
-  using DiffEst = decltype(makeEstimator<double, DiffDrive>(std::declval<const PaperSim<DiffDrive<double>>&>(),
-                                                            std::declval<const FilterSetup&>(), NonSysStart::kSmall));
-  using Model = DiffEst::Model;
-  using Ml = KMaxLikelihood<Model>;
-  constexpr int N = Model::kStates;
-  SimConfig cfg;
-  FilterSetup setup;
-  PaperSim<DiffDrive<double>> sim(cfg, 5);
-  const DiffEst est = makeEstimator<double, DiffDrive>(sim, setup, NonSysStart::kSmall);
+TEST_F(KMlScan, PoseFormMatchesWholeStateForm) {
   KMlConfig<double> c;
   c.inflate = 0;
   c.every = 1 << 30;
@@ -277,8 +296,8 @@ TEST(KMl, ScanPoseFormMatchesWholeStateForm) {
   };
   for (int cycle = 0; cycle < 4; ++cycle) {
     const Model::Input u{0.01 + 0.002 * cycle, 0.011};
-    sparse.predict(est.akf().model(), x, u);
-    dense.predict(est.akf().model(), x, u);
+    predict(&sparse, est.akf().model(), x, u);
+    predict(&dense, est.akf().model(), x, u);
     p.topLeftCorner<3, 3>() += 1e-6 * Eigen::Matrix3d::Identity();  // the prediction's growth
     const Ml::StateMat p_prior = p;
     const Ml::StateVec x_prior = x;
@@ -309,23 +328,14 @@ TEST(KMl, ScanPoseFormMatchesWholeStateForm) {
 
 // A scan whose P before it is not positive definite (a NaN, or a singular pose block) is
 // refused and counted, and the sensitivities restart; the score and information stay finite.
-TEST(KMl, ScanRefusesABadCovariance) {
-  using DiffEst = decltype(makeEstimator<double, DiffDrive>(std::declval<const PaperSim<DiffDrive<double>>&>(),
-                                                            std::declval<const FilterSetup&>(), NonSysStart::kSmall));
-  using Model = DiffEst::Model;
-  using Ml = KMaxLikelihood<Model>;
-  constexpr int N = Model::kStates;
-  SimConfig cfg;
-  FilterSetup setup;
-  PaperSim<DiffDrive<double>> sim(cfg, 5);
-  const DiffEst est = makeEstimator<double, DiffDrive>(sim, setup, NonSysStart::kSmall);
+TEST_F(KMlScan, RefusesABadCovariance) {
   KMlConfig<double> c;
   c.inflate = 0;
   Ml ml(c);
   ml.init(sim.trueNonSys());
   const Ml::StateVec x = est.akf().state();
   const Ml::StateMat p = est.akf().covariance();
-  ml.predict(est.akf().model(), x, Model::Input{0.01, 0.011});
+  predict(&ml, est.akf().model(), x, Model::Input{0.01, 0.011});
   Ml::StateMat p_post = p;
   p_post.topLeftCorner<3, 3>() *= 0.5;
   Eigen::Matrix<double, N, 3> bad = p.leftCols<3>();

@@ -109,7 +109,7 @@ long allocationsInCycles() {
 /// The same with the recursive ML estimator of K (k_ml.hpp) beside the AKF (MlDriver: the
 /// AKF's cycle with the sensitivities, the score and the K steps), in both of its forms.
 template <typename S, template <typename> class DriveT>
-long allocationsInMlCycles(typename KMlConfig<S>::Form form) {
+long allocationsInMlCycles(KMlForm form) {
   SimConfig cfg;
   FilterSetup setup;
   PaperSim<DriveT<double>> sim(cfg, 3);
@@ -122,7 +122,7 @@ long allocationsInMlCycles(typename KMlConfig<S>::Form form) {
     Armed guard;
     for (const auto& in : inputs) ml.cycle(in.u, in.r);
   }
-  if (form == KMlConfig<S>::Form::kBeam) {
+  if (form == KMlForm::kBeam) {
     EXPECT_GT(ml.ml().counters().beams, 200u * 20u) << "the cycles must really fuse beams";
   } else {
     EXPECT_EQ(ml.ml().counters().scans, 200u) << "the cycles must really fuse scans";
@@ -133,7 +133,7 @@ long allocationsInMlCycles(typename KMlConfig<S>::Form form) {
 
 }  // namespace
 
-using MlForm = KMlConfig<double>::Form;
+using MlForm = KMlForm;
 TEST(NoHeap, MlCycleSyncDouble) { EXPECT_EQ((allocationsInMlCycles<double, SyncDrive>(MlForm::kPose)), 0); }
 TEST(NoHeap, MlCycleDiffDouble) { EXPECT_EQ((allocationsInMlCycles<double, DiffDrive>(MlForm::kPose)), 0); }
 TEST(NoHeap, MlCycleWholeStateScanDiffDouble) {

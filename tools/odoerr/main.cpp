@@ -14,7 +14,9 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <iterator>
 #include <string>
+#include <vector>
 
 #include "cli.hpp"
 #include "commands.hpp"
@@ -207,7 +209,7 @@ int main(int argc, char** argv) {
                     "ml: each fused scan whole with the pose's sensitivities (pose, the default: the "
                     "firmware's form), each fused scan whole with every state's (scan), or each fused "
                     "beam (beam: the reference, a second ray cast a beam)")
-      ->check(CLI::IsMember({"pose", "scan", "beam"}))
+      ->check(CLI::IsMember(std::vector<std::string>(std::begin(kKMlFormNames), std::end(kKMlFormNames))))
       ->capture_default_str();
   paper->add_flag("--no-plots", no_plots, "skip the PNG figures");
 
@@ -276,8 +278,7 @@ int main(int argc, char** argv) {
     mlc.reset_log = ml_reset;
     mlc.inflate = ml_inflate;
     mlc.max_inflate_log = std::log(ml_inflate_cap);
-    using Form = KMlConfig<double>::Form;
-    mlc.form = ml_form == "beam" ? Form::kBeam : ml_form == "scan" ? Form::kScan : Form::kPose;
+    (void)parseKMlForm(ml_form, &mlc.form);  // CLI11 has checked the name
     return runPaper(drive, runs, out, seed, threads, !no_plots, pose_term, window, of_kind, mlc, path, radius);
   }
   if (replay->parsed()) {

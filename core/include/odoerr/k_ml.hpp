@@ -36,6 +36,18 @@
 
 namespace odoerr {
 
+/// The form of the ML recursion's update (KMlConfig::form, MlDriver):
+///  - kPose (default): each fused scan whole (scan<Hc, Hc>), with the sensitivities carried
+///    on the measured states only (the pose): dP/dK and d xhat/dK of the systematic
+///    parameters are left out. The score stays an unbiased estimating equation (its weights
+///    depend on the past only); on the paper's drives it moves by under 0.1 of its standard
+///    deviation, and the figures at 30 m are as good or better (docs/nonsystematic.md).
+///    The firmware's form: O(Hc^3) a scan.
+///  - kScan: each fused scan whole, all sensitivities (scan<Hc, N>): the same score as kBeam.
+///  - kBeam: each fused beam (beam(): a second ray cast for its row, O(N^2) a beam): the
+///    reference the others are tested against (test_k_ml.cpp).
+enum class KMlForm { kPose, kScan, kBeam };
+
 template <typename S>
 struct KMlConfig {
   int every = 10;                 ///< cycles between K steps
@@ -61,18 +73,8 @@ struct KMlConfig {
   /// The offset ends the inflation once K is known to about inflate_offset / inflate in log
   /// (15 %), so that K_f = K at the end of a drive.
   S inflate_offset = S(0.3);
-  /// The driver's form of the update (MlDriver):
-  ///  - kPose (default): each fused scan whole (scan<Hc, Hc>), with the sensitivities carried
-  ///    on the measured states only (the pose): dP/dK and d xhat/dK of the systematic
-  ///    parameters are left out. The score stays an unbiased estimating equation (its weights
-  ///    depend on the past only); on the paper's drives it moves by under 0.1 of its standard
-  ///    deviation, and the figures at 30 m are as good or better (docs/nonsystematic.md).
-  ///    The firmware's form: O(Hc^3) a scan.
-  ///  - kScan: each fused scan whole, all sensitivities (scan<Hc, N>): the same score as kBeam.
-  ///  - kBeam: each fused beam (beam(): a second ray cast for its row, O(N^2) a beam): the
-  ///    reference the others are tested against (test_k_ml.cpp).
-  enum class Form { kPose, kScan, kBeam };
-  Form form = Form::kPose;
+  /// The driver's form of the update (KMlForm).
+  KMlForm form = KMlForm::kPose;
 };
 
 struct KMlCounters {
@@ -153,22 +155,15 @@ class KMaxLikelihood {
     return c;
   }
   const KMlCounters& counters() const { return counters_; }
+  const KMlConfig<S>& config() const { return cfg_; }
   const KVec& blockScore() const { return g_; }
   const KMat& blockInformation() const { return info_; }
 
-  /// Before the AKF's prediction with input u from state x (the AKF's state before it).
-  void predict(const Model& model, const StateVec& x, const Input& u) {
-    Eigen::Matrix<S, 3, N> f_pose;
-    Eigen::Matrix<S, 3, Model::kNoise> g_pose;
-    (void)Akf<Model>::transition(model, x, u, &f_pose, &g_pose);
-    predict<N>(model, u, f_pose, g_pose);
-  }
-
-  /// The same with the prediction's Jacobians at hand (Akf::predict's observer hands them
-  /// out): dP_i <- F dP_i F^T + G dQ/dK_i G^T, xi_i <- F xi_i, with F = [f_pose; 0 I] and
+  /// Before the AKF's prediction, with its Jacobians (Akf::predict's observer hands them
+  /// out; Akf::transition computes them): dP_i <- F dP_i F^T + G dQ/dK_i G^T, xi_i <- F xi_i, with F = [f_pose; 0 I] and
   /// G = [g_pose; 0], so only the pose rows and columns change. Ns: the states whose
   /// sensitivities are carried (the first Ns; the others stay zero): N, or the measured
-  /// states (KMlConfig::Form::kPose).
+  /// states (KMlForm::kPose).
   template <int Ns = N>
   ODOERR_NOINLINE void predict(const Model& model, const Input& u, const Eigen::Matrix<S, 3, N>& f_pose,
                                const Eigen::Matrix<S, 3, Model::kNoise>& g_pose) {
@@ -280,7 +275,7 @@ class KMaxLikelihood {
   /// When it is not positive definite the
   /// scan is skipped and the sensitivities restart (counted: scans_skipped); returns false.
   /// Ns (Hc..N): the states whose sensitivities are carried, as in predict<Ns>: with Ns = Hc
-  /// (KMlConfig::Form::kPose) the updates of dP and xi take their measured block only.
+  /// (KMlForm::kPose) the updates of dP and xi take their measured block only.
   /// It reads P_prior's first Hc columns and x_prior's first Hc entries only, so the caller
   /// keeps just those (`p_prior`, `x_prior` here).
   template <int Hc = N, int Ns = N>

@@ -11,7 +11,7 @@ namespace odoerr {
 
 /// The AKF driven by KMaxLikelihood instead of the OF: the same AKF, map and laser as `est`
 /// (copied), the same cycle (predict with the estimator's filter K, fuse the scan), with the
-/// likelihood's sensitivities carried beside it in the form KMlConfig::form names. The scan
+/// likelihood's sensitivities carried beside it in the form KMlConfig::form names (KMlForm). The scan
 /// forms (kPose, the default, and kScan) take each fused scan whole, from the AKF's state and
 /// covariance before and after it (KMaxLikelihood::scan), and the prediction's Jacobians
 /// from the AKF's own predict: no measurement rows, no transition computed twice. kBeam, the
@@ -28,15 +28,15 @@ class MlDriver {
   using MlT = KMaxLikelihood<Model>;
   static constexpr int N = Model::kStates;
 
-  MlDriver(const Est& est, const KMlConfig<S>& cfg) : akf_(est.akf()), map_(est.map()), laser_(est.laser()), ml_(cfg), form_(cfg.form) {
+  MlDriver(const Est& est, const KMlConfig<S>& cfg) : akf_(est.akf()), map_(est.map()), laser_(est.laser()), ml_(cfg) {
     ml_.init(est.of().estimate());
   }
 
   void cycle(const typename Model::Input& u, const S* ranges) {
-    using Form = typename KMlConfig<S>::Form;
     constexpr int Hc = AkfT::kHCols;
+    const KMlForm form = ml_.config().form;
     auto sensitivities = [&](const Eigen::Matrix<S, 3, N>& f, const Eigen::Matrix<S, 3, Model::kNoise>& g) {
-      if (form_ == Form::kPose) {
+      if (form == KMlForm::kPose) {
         ml_.template predict<Hc>(akf_.model(), u, f, g);
       } else {
         ml_.template predict<N>(akf_.model(), u, f, g);
@@ -44,7 +44,7 @@ class MlDriver {
     };
     if (akf_.predict(u, ml_.filterK(), S(0), sensitivities) != Status::kOk) return;
     if (ranges != nullptr) {
-      if (form_ == Form::kBeam) {
+      if (form == KMlForm::kBeam) {
         fuseBeams(ranges);
       } else {
         // What KMaxLikelihood::scan reads of the state before the scan: P's first Hc
@@ -52,7 +52,7 @@ class MlDriver {
         const Eigen::Matrix<S, N, Hc> p_pre = akf_.covariance().template leftCols<Hc>();
         const Eigen::Matrix<S, Hc, 1> x_pre = akf_.state().template head<Hc>();
         if (akf_.updateScan(map_, laser_, ranges).used > 0) {
-          if (form_ == Form::kPose) {
+          if (form == KMlForm::kPose) {
             (void)ml_.template scan<Hc, Hc>(p_pre, x_pre, akf_.covariance(), akf_.state());
           } else {
             (void)ml_.template scan<Hc, N>(p_pre, x_pre, akf_.covariance(), akf_.state());
@@ -68,7 +68,7 @@ class MlDriver {
   /// Restarts K (and its recursion) at k; for tests.
   void restartK(const typename MlT::KVec& k) { ml_.init(k); }
   /// Sum of -1/2 (log s + nu^2/s) over the fused beams so far (the innovation likelihood);
-  /// accumulated with KMlConfig::Form::kBeam only.
+  /// accumulated with KMlForm::kBeam only.
   S logLikelihood() const { return loglik_; }
 
  private:
@@ -102,7 +102,6 @@ class MlDriver {
   typename Est::MapT map_;
   typename Est::LaserT laser_;
   MlT ml_;
-  typename KMlConfig<S>::Form form_;
   S loglik_ = S(0);
 };
 

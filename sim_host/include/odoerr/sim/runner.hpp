@@ -24,11 +24,18 @@ inline const char* toString(NonSysStart s) { return s == NonSysStart::kSmall ? "
 enum class OfKind { kPaper, kMl };
 
 inline const char* toString(OfKind k) { return k == OfKind::kPaper ? "paper" : "ml"; }
-/// The ML recursion's form as --ml-form names it.
-template <typename S>
-const char* toString(typename KMlConfig<S>::Form f) {
-  using Form = typename KMlConfig<S>::Form;
-  return f == Form::kPose ? "pose" : f == Form::kScan ? "scan" : "beam";
+/// The ML recursion's forms as --ml-form and summary.json name them, in KMlForm's order.
+inline constexpr const char* kKMlFormNames[] = {"pose", "scan", "beam"};
+inline const char* toString(KMlForm f) { return kKMlFormNames[static_cast<int>(f)]; }
+/// The form named `name`; false when none is.
+inline bool parseKMlForm(const std::string& name, KMlForm* f) {
+  for (int i = 0; i < 3; ++i) {
+    if (name == kKMlFormNames[i]) {
+      *f = static_cast<KMlForm>(i);
+      return true;
+    }
+  }
+  return false;
 }
 
 /// MlDriver (the AKF driven by the recursive ML estimator of K) lives in the core
