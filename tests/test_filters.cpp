@@ -78,6 +78,29 @@ TEST(AkfHygiene, BeamRejectionsAreCountedByReason) {
   EXPECT_EQ(akf.updateBeam(map, geometry(oblique), 0, 1.0), Status::kOk);
 }
 
+TEST(AkfHygiene, BeamPredictedWithinTwoSigmaOfTheWallIsRefused) {
+  // A range finder reports no return at or below zero range, so near a wall its returns are
+  // cut off from below: a beam predicted shorter than kNearRangeSigmas sigma is refused
+  // (kTooClose) and counted; one just beyond it is fused.
+  SegmentMap<double, 8> map;
+  auto akf = makeRoomAkf(map);
+  LaserConfig<double> laser;  // sigma 3 cm: the limit is 6 cm
+  ASSERT_DOUBLE_EQ(kNearRangeSigmas<double> * laser.sigma, 0.06);
+  auto x = akf.state();
+  x[0] = 10.0 - 0.059;  // beam 18 (+x) hits the wall x = 10 at 5.9 cm
+  akf.init(x, akf.covariance());
+  const auto x0 = akf.state();
+  EXPECT_EQ(akf.updateBeam(map, geometry(laser), 18, 0.059), Status::kTooClose);
+  EXPECT_EQ(akf.counters().too_close, 1u);
+  EXPECT_EQ(akf.counters().beams_used, 0u);
+  EXPECT_EQ(akf.state(), x0) << "a refused beam must not move the state";
+  x[0] = 10.0 - 0.061;
+  akf.init(x, akf.covariance());
+  EXPECT_EQ(akf.updateBeam(map, geometry(laser), 18, 0.061), Status::kOk);
+  EXPECT_EQ(akf.counters().too_close, 1u);
+  EXPECT_EQ(akf.counters().beams_used, 1u);
+}
+
 TEST(AkfHygiene, NoMapHitOutsideTheRoom) {
   SegmentMap<double, 8> map;
   auto akf = makeRoomAkf(map);

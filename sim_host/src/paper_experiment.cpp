@@ -84,6 +84,7 @@ CaseResult aggregate(const std::vector<Trace>& traces, const SimConfig& cfg, Non
     c.beams_used += t.beams_used;
     c.gated += t.gated;
     c.grazing += t.grazing;
+    c.too_close += t.too_close;
     c.no_return += t.no_return;
     c.rejected += t.rejected;
     c.of_updates += t.of_updates;
@@ -325,6 +326,7 @@ std::string healthJson(const PaperResult& r) {
                      {"beams_used", c.beams_used},
                      {"beams_gated", c.gated},
                      {"beams_grazing", c.grazing},
+                     {"beams_too_close", c.too_close},
                      {"beams_no_return_or_no_hit", c.no_return},
                      {"updates_rejected", c.rejected},
                      {"of_updates", c.of_updates},

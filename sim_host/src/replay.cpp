@@ -216,7 +216,7 @@ bool run(const Odolog& log, const ReplayOptions& opt, ReplaySummary* sum, std::s
   const auto& c = est.akf().counters();
   sum->beams_used = c.beams_used;
   sum->beams_gated = c.gated;
-  sum->beams_skipped = c.no_return + c.no_map_hit + c.grazing;
+  sum->beams_skipped = c.no_return + c.no_map_hit + c.grazing + c.too_close;
   sum->nis_mean = nis_n > 0 ? nis_sum / double(nis_n) : 0;
   commitRecord();
   sum->truth_records_scored = n_rec;

@@ -19,6 +19,7 @@ const char* statusName(Status s) {
     case Status::kNoReturn: return "no_return";
     case Status::kNoMapHit: return "no_map_hit";
     case Status::kGrazing: return "grazing";
+    case Status::kTooClose: return "too_close";
     case Status::kGated: return "gated";
     case Status::kBadInnovation: return "bad_innovation";
     case Status::kBadCovariance: return "bad_covariance";

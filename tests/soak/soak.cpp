@@ -215,6 +215,7 @@ SoakResult run(const SoakOptions& o, const char* name) {
   r.no_return = ac.no_return;
   r.no_map_hit = ac.no_map_hit;
   r.grazing = ac.grazing;
+  r.too_close = ac.too_close;
   r.gated = ac.gated;
   r.bad_innovation = ac.bad_innovation;
   r.bad_covariance = ac.bad_covariance;
@@ -247,7 +248,7 @@ std::string checkResult(const SoakResult& r) {
   // is far smaller in a room the laser sees).
   fail(os, !(r.max_eigenvalue < 0.1), d + "largest eigenvalue of P above 0.1: " + std::to_string(r.max_eigenvalue));
   // Every beam offered is accounted for by exactly one outcome.
-  const long outcomes = r.beams_used + r.no_return + r.no_map_hit + r.grazing + r.gated + r.bad_innovation +
+  const long outcomes = r.beams_used + r.no_return + r.no_map_hit + r.grazing + r.too_close + r.gated + r.bad_innovation +
                         r.bad_covariance;
   fail(os, outcomes != r.beams_offered,
        d + "beams offered " + std::to_string(r.beams_offered) + " != outcomes counted " + std::to_string(outcomes));
@@ -280,7 +281,7 @@ std::string toJson(const SoakResult& r) {
      << ", \"scans_offered\": " << r.scans_offered << ", \"beams_offered\": " << r.beams_offered
      << ", \"no_return_beams\": " << r.beams_nan_injected << ", \"bursts\": " << r.bursts
      << ", \"outlier_beams\": " << r.outliers_injected << "},\n \"counted\": {\"beams_used\": " << r.beams_used
-     << ", \"no_return\": " << r.no_return << ", \"no_map_hit\": " << r.no_map_hit << ", \"grazing\": " << r.grazing
+     << ", \"no_return\": " << r.no_return << ", \"no_map_hit\": " << r.no_map_hit << ", \"grazing\": " << r.grazing << ", \"too_close\": " << r.too_close
      << ", \"gated\": " << r.gated << ", \"bad_innovation\": " << r.bad_innovation
      << ", \"bad_covariance\": " << r.bad_covariance << ", \"bad_inputs\": " << r.bad_inputs
      << ", \"bad_predictions\": " << r.bad_predictions << ", \"predictions\": " << r.predictions

@@ -41,7 +41,7 @@ struct SoakResult {
   long bursts = 0;
   long outliers_injected = 0;
   // counted by the core (AkfCounters) and by beam outcome (the observer)
-  long beams_used = 0, no_return = 0, no_map_hit = 0, grazing = 0, gated = 0;
+  long beams_used = 0, no_return = 0, no_map_hit = 0, grazing = 0, too_close = 0, gated = 0;
   long bad_innovation = 0, bad_covariance = 0, bad_inputs = 0, bad_predictions = 0;
   long predictions = 0;
   long nan_counted_no_return = 0;   ///< injected no-return beams refused as kNoReturn

@@ -23,6 +23,7 @@ enum class Status : std::uint8_t {
   kNoReturn,       ///< beam had no valid return (nan, <= 0 or beyond range_max)
   kNoMapHit,       ///< the predicted beam hits no wall
   kGrazing,        ///< incidence on the predicted wall beyond the limit
+  kTooClose,       ///< predicted range within kNearRangeSigmas sigma of zero (returns cut off)
   kGated,          ///< normalised innovation squared above the gate
   kBadInnovation,  ///< innovation variance not finite or not above the measurement variance
   kBadCovariance,  ///< the update would make a variance non-positive or non-finite
@@ -37,6 +38,7 @@ struct AkfCounters {
   std::uint32_t no_return = 0;
   std::uint32_t no_map_hit = 0;
   std::uint32_t grazing = 0;
+  std::uint32_t too_close = 0;  ///< beams refused: predicted range too short (kTooClose)
   std::uint32_t gated = 0;
   std::uint32_t bad_innovation = 0;
   std::uint32_t bad_covariance = 0;
@@ -161,23 +163,24 @@ class Akf {
         return Status::kBadCovariance;
       }
     } else {
-      const Eigen::Matrix<S, 3, N> fp = f_pose.lazyProduct(p_);
-      StateMat pn = p_;
-      pn.template topRows<3>() = fp;
-      pn.template leftCols<3>() = fp.transpose();
-      pn.template topLeftCorner<3, 3>() =
+      // The new P's pose rows, built beside P and written into it once checked: the
+      // parameter block does not change, so P is not copied (two copies of the whole P
+      // cost more than the rest of the prediction's covariance on the M4F).
+      Eigen::Matrix<S, 3, N> fp = f_pose.lazyProduct(p_);
+      Eigen::Matrix<S, 3, 3> pose =
           fp.lazyProduct(f_pose.transpose()) + g_pose * q.asDiagonal() * g_pose.transpose();
       if constexpr (Model::kHasNoiseEffects) {
-        pn.template topLeftCorner<3, 3>() +=
-            d_inc * model_.extraVariance(inc, x_, ctx_).asDiagonal() * d_inc.transpose();
+        pose += d_inc * model_.extraVariance(inc, x_, ctx_).asDiagonal() * d_inc.transpose();
       }
       // Only the new pose block can be asymmetric by rounding; the rest is copied symmetric.
-      symmetrisePose(pn);
-      if (!poseRowsHealthy(pn)) {
+      symmetrisePose(pose);
+      fp.template leftCols<3>() = pose;
+      if (!poseRowsHealthy(fp)) {
         ++counters_.bad_predictions;
         return Status::kBadCovariance;
       }
-      p_ = pn;
+      p_.template topRows<3>() = fp;
+      p_.template leftCols<3>() = fp.transpose();
     }
     x_[PoseIdx::kX] = next.x;
     x_[PoseIdx::kY] = next.y;
@@ -428,6 +431,7 @@ class Akf {
     const RayHit<S> hit = map.castDir(lx, ly, ux, uy, S(1e-6), cfg.range_max);
     if (!hit.hit) return Status::kNoMapHit;
     if (std::abs(hit.n_dot_u) < min_cos_incidence) return Status::kGrazing;
+    if (hit.range < kNearRangeSigmas<S> * cfg.sigma) return Status::kTooClose;
     *range = hit.range;
     if (h != nullptr) {
       // r = (n.(a - pL)) / (n.u):  dr/dpL = -n/(n.u),  dr/dalpha = -r (n.u')/(n.u)
@@ -656,9 +660,12 @@ class Akf {
     S hf[kHCols];
     S predicted = S(0);
     const Status ps = predictBeam(map, laser, i, c, sn, &predicted, hf);
-    if (ps == Status::kNoMapHit) ++counters_.no_map_hit;
-    if (ps == Status::kGrazing) ++counters_.grazing;
-    if (ps != Status::kOk) return ps;
+    if (ps != Status::kOk) {
+      if (ps == Status::kNoMapHit) ++counters_.no_map_hit;
+      if (ps == Status::kGrazing) ++counters_.grazing;
+      if (ps == Status::kTooClose) ++counters_.too_close;
+      return ps;
+    }
 
     const S r = cfg.sigma * cfg.sigma;
     // Within a scan only the upper triangle of P is kept current (the caller mirrors it
@@ -814,7 +821,8 @@ class Akf {
     return true;
   }
 
-  static void symmetrisePose(StateMat& p) {
+  template <typename Mat>
+  static void symmetrisePose(Mat& p) {
     for (int r = 0; r < 3; ++r) {
       for (int c = r + 1; c < 3; ++c) {
         const S v = S(0.5) * (p(r, c) + p(c, r));
@@ -825,7 +833,8 @@ class Akf {
   }
   /// After a prediction only the pose rows/columns changed: they must be finite and the
   /// diagonal positive (the parameter block is untouched by construction).
-  static bool poseRowsHealthy(const StateMat& p) {
+  template <typename Mat>
+  static bool poseRowsHealthy(const Mat& p) {
     for (int r = 0; r < 3; ++r) {
       if (!(p(r, r) > S(0))) return false;
       for (int c = 0; c < N; ++c) {

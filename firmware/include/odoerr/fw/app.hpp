@@ -282,7 +282,7 @@ class App {
     const auto& ac = est_.akf().counters();
     const auto& lc = parser_.counters();
     const std::uint32_t counters[] = {
-        ac.beams_used, ac.gated, ac.grazing + ac.no_return + ac.no_map_hit,
+        ac.beams_used, ac.gated, ac.grazing + ac.too_close + ac.no_return + ac.no_map_hit,
         ac.bad_inputs + ac.bad_predictions + ac.bad_innovation + ac.bad_covariance,
         est_.of().counters().updates, est_.of().counters().rejected,
         enc_a_.counters().jumps_rejected + enc_b_.counters().jumps_rejected,

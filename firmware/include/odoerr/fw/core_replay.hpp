@@ -53,7 +53,7 @@ int replayThrough(Est& est, const TapeHeader& h, Read&& read, Write&& write, std
   std::uint8_t tail[24];
   putU32(tail, 0xFFFFFFFFu);
   putU32(tail + 4, ac.beams_used);
-  putU32(tail + 8, ac.no_return + ac.no_map_hit + ac.grazing + ac.gated + ac.bad_innovation + ac.bad_covariance);
+  putU32(tail + 8, ac.no_return + ac.no_map_hit + ac.grazing + ac.too_close + ac.gated + ac.bad_innovation + ac.bad_covariance);
   putU32(tail + 12, est.of().counters().updates);
   putU32(tail + 16, stack_probe != nullptr ? stack_probe() : 0u);
   putU32(tail + 20, static_cast<std::uint32_t>(sizeof(Est)));  // both filters' state

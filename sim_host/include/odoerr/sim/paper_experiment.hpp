@@ -38,7 +38,7 @@ struct CaseResult {
   std::vector<std::string> names;          ///< parameter names (systematic then non-systematic)
   std::vector<std::vector<Stat>> params;   ///< [record][param]
   std::vector<double> pos_rms_m, heading_rms_rad, pos_sigma_mean_m, heading_sigma_mean_rad;
-  std::uint64_t beams_used = 0, gated = 0, grazing = 0, no_return = 0, rejected = 0;
+  std::uint64_t beams_used = 0, gated = 0, grazing = 0, too_close = 0, no_return = 0, rejected = 0;
   std::uint64_t of_updates = 0, of_rejected = 0, of_clamped = 0;
   /// Each run's last record: [run][param] value and reported sigma, then position and
   /// heading error (runs.csv).

@@ -64,7 +64,7 @@ struct Trace {
   std::vector<double> distance_m;  ///< per record
   std::vector<double> values;      ///< records x layout size, row-major
   int width = 0;
-  std::uint32_t beams_used = 0, gated = 0, grazing = 0, no_return = 0, rejected = 0;
+  std::uint32_t beams_used = 0, gated = 0, grazing = 0, too_close = 0, no_return = 0, rejected = 0;
   std::uint32_t of_updates = 0, of_rejected = 0, of_clamped = 0;
 };
 
@@ -149,6 +149,7 @@ Trace runDrive(const SimConfig& cfg, std::uint64_t seed, NonSysStart start, cons
   tr.beams_used = c.beams_used;
   tr.gated = c.gated;
   tr.grazing = c.grazing;
+  tr.too_close = c.too_close;
   tr.no_return = c.no_return + c.no_map_hit;
   tr.rejected = c.bad_innovation + c.bad_covariance + c.bad_inputs + c.bad_predictions;
   if (use_ml) {
