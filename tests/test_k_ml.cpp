@@ -356,3 +356,48 @@ TEST_F(KMlScan, RefusesABadCovariance) {
   EXPECT_EQ(ml.blockScore()[0], 0.0);
   EXPECT_EQ(ml.counters().scans, 1u);
 }
+
+// A blind stretch (cycles with no scan taken: no beam the map explains) takes no K step and
+// forgets nothing: the information J, K, and the inflated K the AKF predicts with stay as
+// they were. Forgetting per step would let sigma, and the AKF's K with it, grow for as long
+// as the robot sees nothing (docs/nonsystematic.md: the circle from above, seed 76).
+TEST_F(KMlScan, BlindStretchForgetsNothing) {
+  KMlConfig<double> c;
+  c.every = 1;
+  c.inflate = 2;
+  c.inflate_offset = 0;  // inflated for any sigma > 0
+  Ml ml(c);
+  ml.init(sim.trueNonSys());
+  const Ml::StateVec x = est.akf().state();
+  const Ml::StateMat p = est.akf().covariance();
+  Ml::StateMat p_post = p;
+  p_post.topLeftCorner<3, 3>() *= 0.5;
+  const Model::Input u{0.01, 0.011};
+  for (int cycle = 0; cycle < 5; ++cycle) {
+    predict(&ml, est.akf().model(), x, u);
+    const Eigen::Matrix<double, N, 3> p3 = p.leftCols<3>();
+    ASSERT_TRUE((ml.scan<3, 3>(p3, x.head<3>(), p_post, x)));
+    (void)ml.endCycle();
+  }
+  const auto steps = ml.counters().steps;
+  ASSERT_GT(steps, 0u);
+  const Ml::KVec k = ml.estimate();
+  const Ml::KVec kf = ml.filterK();
+  const Ml::KMat cov = ml.covariance();
+  ASSERT_GT(kf[0], k[0]) << "the test needs the inflation active";
+  for (int cycle = 0; cycle < 50; ++cycle) {
+    predict(&ml, est.akf().model(), x, u);
+    EXPECT_FALSE(ml.endCycle());
+  }
+  EXPECT_EQ(ml.counters().idle, 50u);
+  EXPECT_EQ(ml.counters().steps, steps);
+  EXPECT_EQ(ml.estimate(), k);
+  EXPECT_EQ(ml.filterK(), kf) << "the AKF's K grew while nothing was seen";
+  EXPECT_EQ(ml.covariance(), cov);
+  // The first scan after the stretch is taken as before.
+  predict(&ml, est.akf().model(), x, u);
+  const Eigen::Matrix<double, N, 3> p3 = p.leftCols<3>();
+  ASSERT_TRUE((ml.scan<3, 3>(p3, x.head<3>(), p_post, x)));
+  EXPECT_TRUE(ml.endCycle());
+  EXPECT_EQ(ml.counters().steps, steps + 1);
+}

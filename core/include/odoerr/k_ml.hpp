@@ -85,6 +85,7 @@ struct KMlCounters {
   std::uint32_t resets = 0;    ///< restarts of J and the sensitivities (reset_log)
   std::uint32_t scans = 0;     ///< scans taken whole (scan())
   std::uint32_t scans_skipped = 0;  ///< scans refused by scan(): P_prior not positive definite
+  std::uint32_t idle = 0;      ///< steps not taken: nothing fused since the last one
 };
 
 template <typename ModelT>
@@ -119,6 +120,7 @@ class KMaxLikelihood {
     k_ref_ = k0;
     lambda_ = cfg_.lambda0;
     cycles_ = 0;
+    taken_ = 0;
     updateFilterK();
   }
 
@@ -255,6 +257,7 @@ class KMaxLikelihood {
       dp_[i] += -k * dph[i].transpose() - dph[i] * k.transpose() + ds[i] * (k * k.transpose());
     }
     ++counters_.beams;
+    ++taken_;
   }
 
   /// One fused scan as a whole: the equivalent (to the linearisation) of beam() over its fused
@@ -474,6 +477,7 @@ class KMaxLikelihood {
       }
     }
     ++counters_.scans;
+    ++taken_;
     return true;
   }
 
@@ -487,6 +491,16 @@ class KMaxLikelihood {
  private:
   /// The K step of endCycle (out of line: it runs one cycle in `every`).
   ODOERR_NOINLINE bool step() {
+    // Nothing fused since the last step (a blind stretch: no beam the map explains): no
+    // step, and no forgetting either. Forgetting J per step rather than per information
+    // would let sigma, and with it the inflated K the AKF predicts with, grow for as long
+    // as the robot sees nothing (measured, sync circle from above, seed 76: K_f from 338x to
+    // 428x the truth in 0.2 m without a beam, and the pose lost when the beams returned).
+    if (taken_ == 0) {
+      ++counters_.idle;
+      return false;
+    }
+    taken_ = 0;
     const KMat dk = kf_.asDiagonal();
     const KMat info_t = dk * info_ * dk;
     KVec g_t = dk * g_;
@@ -567,6 +581,7 @@ class KMaxLikelihood {
   KMat j_ = KMat::Zero();
   S lambda_ = S(0.9);
   int cycles_ = 0;
+  int taken_ = 0;  ///< scans (or beams) taken since the last step
   KMlCounters counters_{};
 };
 
