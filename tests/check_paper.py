@@ -1,6 +1,8 @@
 #!/usr/bin/env python3
 """Checks an `odoerr paper` output directory: summary.json has exactly the documented shape,
-and (with --acceptance) the 30 m figures lie in the ranges of the issue's acceptance."""
+and (with --acceptance) the 30 m figures lie in the ranges of the issue's acceptance; with
+--k-acceptance, K meets issue 15's acceptance at 30 m from both starts: mean within 5 % of the
+truth, accuracy within 1.5x bound_pct, reported sigma within 1.5x of the spread."""
 import argparse
 import json
 import math
@@ -24,6 +26,7 @@ def main():
     ap.add_argument("--drive", required=True, choices=["sync", "diff"])
     ap.add_argument("--runs", type=int, required=True)
     ap.add_argument("--acceptance", action="store_true")
+    ap.add_argument("--k-acceptance", action="store_true", help="issue 15's acceptance for K")
     ap.add_argument("--plots", action="store_true", help="also require the PNG figures")
     a = ap.parse_args()
     with open(os.path.join(a.dir, "summary.json")) as f:
@@ -114,6 +117,18 @@ def main():
                 lo, hi = ranges[n]
                 check(lo <= p[n]["bound_pct"] <= hi, tag + f"{n} bound {p[n]['bound_pct']:.2f} % (oracle range {lo}-{hi} %)")
         check(s["wall_time_s"] < 30, f"wall time {s['wall_time_s']} s (< 30 s per drive)")
+    if a.k_acceptance:
+        for c in s["cases"]:
+            p = c["checkpoints"][-1]["params"]
+            tag = f"[{c['init']}] "
+            for n in names[-2:] if a.drive == "sync" else names[-1:]:
+                v = p[n]
+                r = v["mean"] / v["true"]
+                q = v["accuracy_pct"] / v["bound_pct"]
+                check(abs(r - 1) <= 0.05, tag + f"{n} mean {r:.3f}x the truth (within 5 %)")
+                check(q <= 1.5, tag + f"{n} accuracy {v['accuracy_pct']:.2f} % = {q:.2f}x its bound (within 1.5x)")
+                sr = v["sigma_ratio"]
+                check(sr is not None and 1 / 1.5 <= sr <= 1.5, tag + f"{n} sigma {sr}x the spread (within 1.5x)")
     print(f"{len(fails)} failed" if fails else "all checks passed")
     return 1 if fails else 0
 
