@@ -35,7 +35,8 @@ def main():
     keys = {"drive", "runs", "of", "path", "radius_m", "wall_time_s", "bound", "cases"}
     check(set(s) == (keys | {"ml"} if s.get("of") == "ml" else keys), "top-level keys")
     if s.get("of") == "ml":
-        check(set(s["ml"]) == {"every", "reset_log", "inflate", "inflate_cap", "form"}
+        check(set(s["ml"]) == {"every", "reset_log", "inflate", "inflate_cap", "form", "discount",
+                                "discount_above", "reset_keep"}
               and s["ml"]["form"] in ("pose", "scan", "beam"), "ml settings")
     check(s["path"] in ("circle", "eight"), "path is circle or eight")
     check(0 < s["radius_m"] <= (5 if s["path"] == "circle" else 2.5), "radius inside the room")

@@ -101,6 +101,31 @@ TEST(AkfHygiene, BeamPredictedWithinTwoSigmaOfTheWallIsRefused) {
   EXPECT_EQ(akf.counters().beams_used, 1u);
 }
 
+// scaleParameterCovariance: P <- D P D with D = diag(1, 1, 1, d3, d4): the pose block
+// unchanged, the rest scaled, P symmetric.
+TEST(AkfHygiene, ScaleParameterCovarianceIsACongruence) {
+  SegmentMap<double, 8> map;
+  auto akf = makeRoomAkf(map);
+  SyncModel::StateMat p;
+  p << 4, 1, 0.5, 0.2, 0.1,  //
+      1, 3, 0.3, 0.1, 0.2,   //
+      0.5, 0.3, 2, 0.4, 0.3,  //
+      0.2, 0.1, 0.4, 1, 0.2,  //
+      0.1, 0.2, 0.3, 0.2, 1.5;
+  akf.init(akf.state(), p * 1e-4);
+  const double d[5] = {7, 7, 7, 2, 3};  // the pose's entries are not read
+  akf.scaleParameterCovariance(d);
+  Eigen::Matrix<double, 5, 5> dd = Eigen::Matrix<double, 5, 5>::Identity();
+  dd(3, 3) = 2;
+  dd(4, 4) = 3;
+  const SyncModel::StateMat want = dd * (p * 1e-4) * dd;
+  EXPECT_LT((akf.covariance() - want).cwiseAbs().maxCoeff(), 1e-15);
+  EXPECT_EQ(akf.covariance(), akf.covariance().transpose());
+  const Eigen::Matrix3d pose_before = (p * 1e-4).topLeftCorner<3, 3>();
+  const Eigen::Matrix3d pose_after = akf.covariance().topLeftCorner<3, 3>();
+  EXPECT_EQ(pose_after, pose_before);
+}
+
 TEST(AkfHygiene, NoMapHitOutsideTheRoom) {
   SegmentMap<double, 8> map;
   auto akf = makeRoomAkf(map);

@@ -118,6 +118,8 @@ struct McStats {
   double k_spread[2] = {0, 0};  ///< population std of K / truth
   double k_sigma[2] = {0, 0};   ///< mean reported sigma / truth
   double sys_spread = 0;        ///< population std of the first systematic parameter / truth
+  double sys2_spread = 0;       ///< the same for the second one (E_theta on sync)
+  double sys2_sigma = 0;        ///< its mean reported sigma / truth
 };
 
 /// A small Monte Carlo of `runs` closed-loop drives of `metres` with --of ml from `start`.
@@ -133,7 +135,8 @@ McStats monteCarlo(int runs, int metres, NonSysStart start, const KMlConfig<doub
   const auto kt = sim.trueNonSys();
   const double p0 = sim.trueParams()[0];
   const int m = D::kNonSys < 2 ? D::kNonSys : 2;
-  std::vector<double> k[2], sg[2], sys;
+  std::vector<double> k[2], sg[2], sys, sys2, sys2_sigma;
+  const double p1 = D::kParams > 1 ? sim.trueParams()[1] : 1.0;
   for (int r = 0; r < runs; ++r) {
     const Trace t = runDrive<double, DriveT>(cfg, 1 + std::uint64_t(r), start, setup, cfg.steps, nullptr, of, mc);
     const double* row = &t.values[(t.distance_m.size() - 1) * std::size_t(t.width)];
@@ -142,6 +145,10 @@ McStats monteCarlo(int runs, int metres, NonSysStart start, const KMlConfig<doub
       sg[i].push_back(row[L::kSigma + L::kP + i] / kt[i]);
     }
     sys.push_back(row[L::kValue] / p0);
+    if (D::kParams > 1) {
+      sys2.push_back(row[L::kValue + 1] / p1);
+      sys2_sigma.push_back(row[L::kSigma + 1] / p1);
+    }
   }
   auto mean = [](const std::vector<double>& v) {
     double s = 0;
@@ -161,6 +168,10 @@ McStats monteCarlo(int runs, int metres, NonSysStart start, const KMlConfig<doub
     st.k_sigma[i] = mean(sg[i]);
   }
   st.sys_spread = spread(sys);
+  if (!sys2.empty()) {
+    st.sys2_spread = spread(sys2);
+    st.sys2_sigma = mean(sys2_sigma);
+  }
   return st;
 }
 
@@ -191,8 +202,8 @@ TEST(KMl, FilterKInflatedWhileNoInformation) {
 
 // From 100x below the truth, 20 runs of 10 m on the sync drive: with the restarts and the
 // inflated filter K (the defaults) K reaches the truth's neighbourhood, the reported sigma
-// follows the spread, and delta_rho keeps its spread near the one from above. The plain
-// recursion (no restart, no inflation) fails all three (printed: 0.58x, sigma 0.1x the spread).
+// follows the spread, and delta_rho keeps its spread near the plain recursion's (no restart,
+// no inflation, printed beside them) and under the paper OF's.
 TEST(KMl, ConvergesFromBelowSync) {
   const KMlConfig<double> def;
   KMlConfig<double> old = def;
@@ -213,11 +224,36 @@ TEST(KMl, ConvergesFromBelowSync) {
     EXPECT_GT(honesty, 0.5) << "K" << i << " sigma too small against the spread";
     EXPECT_LT(honesty, 2.0) << "K" << i << " sigma too large against the spread";
   }
-  // delta_rho's spread from below at 10 m: below the plain recursion's (which the over-trusted
-  // odometry damages) and within 2x the paper's OF's from the same start (printed: 1.7x at
-  // 10 m; at 30 m both are 0.6 %, docs/nonsystematic.md).
-  EXPECT_LT(below.sys_spread, 0.7 * below_old.sys_spread) << "delta_rho damaged from below";
-  EXPECT_LT(below.sys_spread, 2.0 * below_of.sys_spread) << "delta_rho damaged from below";
+  // delta_rho's spread from below at 10 m: near the plain recursion's and under the paper's
+  // OF's from the same start (printed: 1.09x and 0.79x; the discount, which reopens delta_rho
+  // while K climbs, costs it a little at 10 m; at 30 m it is 0.5 % like the OF's,
+  // docs/nonsystematic.md).
+  EXPECT_LT(below.sys_spread, 1.3 * below_old.sys_spread) << "delta_rho damaged from below";
+  EXPECT_LT(below.sys_spread, 1.0 * below_of.sys_spread) << "delta_rho damaged from below";
+}
+
+// From 100x below, what the AKF learns of the systematic parameters while the K it predicts
+// with is still far too small is overconfident; when K rises the driver discounts it
+// (MlDriver::discount). 40 runs of 30 m on the sync drive: E_theta's spread with the discount
+// is well under the spread without it (printed: 0.78x) and near the paper OF's from the same
+// start (1.11x), and its reported sigma is honest (docs/nonsystematic.md, 100 runs: 19.5 %
+// against 24.5 %, the OF 19.3 %).
+TEST(KMl, DiscountKeepsEThetaFromBelowSync) {
+  const KMlConfig<double> def;
+  ASSERT_TRUE(def.discount);
+  KMlConfig<double> off = def;
+  off.discount = false;
+  const McStats on = monteCarlo<SyncDrive>(40, 30, NonSysStart::kSmall, def);
+  const McStats without = monteCarlo<SyncDrive>(40, 30, NonSysStart::kSmall, off);
+  const McStats of = monteCarlo<SyncDrive>(40, 30, NonSysStart::kSmall, def, OfKind::kPaper);
+  std::printf("E_theta spread / truth at 30 m: discount %.3f (sigma %.3f), none %.3f (sigma %.3f), paper OF %.3f\n",
+              on.sys2_spread, on.sys2_sigma, without.sys2_spread, without.sys2_sigma, of.sys2_spread);
+  EXPECT_LT(on.sys2_spread, 0.85 * without.sys2_spread);
+  EXPECT_LT(on.sys2_spread, 1.3 * of.sys2_spread);
+  const double honesty = on.sys2_sigma / on.sys2_spread;
+  EXPECT_GT(honesty, 1 / 1.5);
+  EXPECT_LT(honesty, 1.5);
+  EXPECT_LT(on.sys_spread, 1.3 * of.sys_spread) << "delta_rho";
 }
 
 // The reported covariance of K_w carries delta_d's uncertainty (the data fix K_w / delta_d^2):

@@ -207,7 +207,10 @@ std::string summaryJson(const PaperResult& r) {
                {"reset_log", r.ml.reset_log},
                {"inflate", r.ml.inflate},
                {"inflate_cap", std::round(std::exp(r.ml.max_inflate_log) * 1000.0) / 1000.0},
-               {"form", toString(r.ml.form)}};
+               {"form", toString(r.ml.form)},
+               {"discount", r.ml.discount},
+               {"discount_above", r.ml.discount_above},
+               {"reset_keep", r.ml.reset_keep}};
   }
   j["path"] = r.figure_eight ? "eight" : "circle";
   j["radius_m"] = r.radius_m;

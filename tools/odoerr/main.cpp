@@ -170,6 +170,9 @@ int main(int argc, char** argv) {
   double ml_reset = KMlConfig<double>{}.reset_log;
   double ml_inflate = KMlConfig<double>{}.inflate;
   std::string ml_form = "pose";
+  bool ml_no_discount = false;
+  double ml_reset_keep = KMlConfig<double>{}.reset_keep;
+  double ml_discount_above = KMlConfig<double>{}.discount_above;
   double ml_inflate_cap = std::round(std::exp(KMlConfig<double>{}.max_inflate_log));
   paper->add_option("--drive", drive, "sync or diff")->check(CLI::IsMember({"sync", "diff"}));
   paper->add_option("--runs", runs, "Monte Carlo runs per start (> 0)")
@@ -204,6 +207,17 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   paper->add_option("--ml-inflate-cap", ml_inflate_cap, "ml: the inflation's cap, a factor on K (1..1000)")
       ->check(CLI::Range(1.0, 1000.0))
+      ->capture_default_str();
+  paper->add_flag("--ml-no-discount", ml_no_discount,
+                  "ml: keep what the AKF knew of the systematic parameters when the K it predicts with "
+                  "rises (by default it is discounted by the same factor, up to the prior)");
+  paper->add_option("--ml-discount-above", ml_discount_above,
+                    "ml: discount only when K has risen this many times above the smallest K the AKF "
+                    "predicted with since the last discount")
+      ->check(CLI::Range(1.0, 100.0))
+      ->capture_default_str();
+  paper->add_option("--ml-reset-keep", ml_reset_keep, "ml: the share of the information a restart keeps (0..1)")
+      ->check(CLI::Range(0.0, 1.0))
       ->capture_default_str();
   paper->add_option("--ml-form", ml_form,
                     "ml: each fused scan whole with the pose's sensitivities (pose, the default: the "
@@ -278,6 +292,9 @@ int main(int argc, char** argv) {
     mlc.reset_log = ml_reset;
     mlc.inflate = ml_inflate;
     mlc.max_inflate_log = std::log(ml_inflate_cap);
+    mlc.discount = !ml_no_discount;
+    mlc.reset_keep = ml_reset_keep;
+    mlc.discount_above = ml_discount_above;
     (void)parseKMlForm(ml_form, &mlc.form);  // CLI11 has checked the name
     return runPaper(drive, runs, out, seed, threads, !no_plots, pose_term, window, of_kind, mlc, path, radius);
   }

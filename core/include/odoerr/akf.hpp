@@ -103,6 +103,20 @@ class Akf {
   const Model& model() const { return model_; }
   const AkfConfig<S>& config() const { return cfg_; }
 
+  /// Scales the rows and columns of P of the states after the pose by d[j] (j >= 3; d[j] > 0):
+  /// P <- D P D, a congruence, so P stays symmetric and positive definite. What the filter
+  /// knew of those states counts for less: MlDriver discounts the systematic parameters so
+  /// when the K it predicts with rises (docs/nonsystematic.md: what the AKF learnt under a
+  /// K too small was overconfident, and held E_theta at its first metre's value).
+  ODOERR_NOINLINE void scaleParameterCovariance(const S* d) {
+    for (int j = 3; j < N; ++j) {
+      for (int k = 0; k < N; ++k) {
+        p_(j, k) *= d[j];
+        p_(k, j) *= d[j];
+      }
+    }
+  }
+
   /// Prediction with the encoder increments of one cycle; k = current non-systematic
   /// estimate (the OF's), which sets the process noise; dt = the cycle's duration (s), used
   /// only by effects that depend on speed (0 = unknown).
@@ -167,8 +181,23 @@ class Akf {
       // parameter block does not change, so P is not copied (two copies of the whole P
       // cost more than the rest of the prediction's covariance on the M4F).
       Eigen::Matrix<S, 3, N> fp = f_pose.lazyProduct(p_);
-      Eigen::Matrix<S, 3, 3> pose =
-          fp.lazyProduct(f_pose.transpose()) + g_pose * q.asDiagonal() * g_pose.transpose();
+      // The pose block F P F^T + G Q G^T, its upper triangle written out and mirrored: as an
+      // Eigen expression GCC called it out of line in the ML image, at 318 instructions a
+      // cycle (measured).
+      Eigen::Matrix<S, 3, 3> pose;
+#pragma GCC unroll 3
+      for (int r = 0; r < 3; ++r) {
+#pragma GCC unroll 3
+        for (int cl = r; cl < 3; ++cl) {
+          S acc = S(0);
+#pragma GCC unroll 16
+          for (int j = 0; j < N; ++j) acc += fp(r, j) * f_pose(cl, j);
+#pragma GCC unroll 4
+          for (int n = 0; n < Model::kNoise; ++n) acc += g_pose(r, n) * q[n] * g_pose(cl, n);
+          pose(r, cl) = acc;
+          pose(cl, r) = acc;
+        }
+      }
       if constexpr (Model::kHasNoiseEffects) {
         pose += d_inc * model_.extraVariance(inc, x_, ctx_).asDiagonal() * d_inc.transpose();
       }

@@ -55,12 +55,16 @@ struct KMlConfig {
   S lambda0 = S(0.9);             ///< initial forgetting factor
   S lambda_rate = S(0.98);        ///< lambda <- rate lambda + (1 - rate)  (towards 1)
   /// Stale information: when log K has moved by more than reset_log (any component) since
-  /// the last restart, J and the sensitivities dP/dK, d xhat/dK are dropped and lambda
+  /// the last restart, the sensitivities dP/dK, d xhat/dK are dropped, J is scaled by reset_keep and lambda
   /// restarts at lambda0 (0: off). Gathered at a K far from the current one, they no longer
   /// describe the likelihood there: the sensitivities of the systematic-parameter states,
   /// built while the innovations were large, decay slowly and inflate the information, so
   /// the steps stall and sigma is too small (measured: docs/nonsystematic.md).
   S reset_log = S(1.5);
+  /// The share of J a restart keeps. Emptied (0), J let the inflation jump to its cap at
+  /// each restart (K_f 30x the estimate); once, on a blind stretch, that lost the pose from
+  /// below (seed 1059: docs/nonsystematic.md).
+  S reset_keep = S(0.3);
   /// Decoupling the AKF's Q from the estimate while K is uncertain: the AKF runs with
   /// K_f = K exp(min(inflate sigma_logK - inflate_offset, max_inflate_log)) when that exponent
   /// is positive, else K (inflate 0: off); sigma_logK from J (max_inflate_log while J is not
@@ -75,6 +79,11 @@ struct KMlConfig {
   S inflate_offset = S(0.3);
   /// The driver's form of the update (KMlForm).
   KMlForm form = KMlForm::kPose;
+  /// When the filter K rises, the driver discounts what the AKF knew of the systematic
+  /// parameters by the same factor, up to their prior (MlDriver::discount).
+  bool discount = true;
+  /// Only a rise beyond this factor is discounted (filterKGrowth).
+  S discount_above = S(2);
 };
 
 struct KMlCounters {
@@ -122,12 +131,19 @@ class KMaxLikelihood {
     cycles_ = 0;
     taken_ = 0;
     updateFilterK();
+    growth_ = S(1);
+    kf_min_ = kf_;
   }
 
   const KVec& estimate() const { return k_; }
   /// The K the AKF should predict with (K itself unless inflate > 0); the sensitivities and
   /// the score are with respect to it. Updated at each step.
   const KVec& filterK() const { return kf_; }
+  /// The factor by which the AKF's knowledge of the systematic parameters was overstated, as
+  /// seen at the last step: the largest K / (the smallest K_f the AKF has predicted with
+  /// since the last such discount) over the components when above
+  /// KMlConfig::discount_above, else 1 (MlDriver discounts the AKF's parameters by it).
+  S filterKGrowth() const { return growth_; }
   /// Covariance of K from the accumulated information (J^-1 in log K, mapped to K).
   KMat covariance() const {
     KMat c = KMat::Zero();
@@ -534,7 +550,7 @@ class KMaxLikelihood {
       S moved = S(0);
       for (int i = 0; i < M; ++i) moved = std::max(moved, std::abs(std::log(k_[i] / k_ref_[i])));
       if (moved > cfg_.reset_log) {
-        j_.setZero();
+        j_ *= cfg_.reset_keep;
         lambda_ = cfg_.lambda0;
         k_ref_ = k_;
         for (int i = 0; i < M; ++i) {
@@ -545,6 +561,13 @@ class KMaxLikelihood {
       }
     }
     updateFilterK();
+    // The estimate against the smallest K the AKF has predicted with since the last
+    // discount: what the AKF learnt then was overstated by about that factor. Only a clear
+    // rise counts, so that the steps' wander about the truth does not add up to forgetting.
+    S g = S(1);
+    for (int i = 0; i < M; ++i) g = std::max(g, k_[i] / kf_min_[i]);
+    growth_ = g > cfg_.discount_above ? g : S(1);
+    for (int i = 0; i < M; ++i) kf_min_[i] = growth_ > S(1) ? kf_[i] : std::min(kf_min_[i], kf_[i]);
     return true;
   }
 
@@ -582,6 +605,8 @@ class KMaxLikelihood {
   S lambda_ = S(0.9);
   int cycles_ = 0;
   int taken_ = 0;  ///< scans (or beams) taken since the last step
+  S growth_ = S(1);
+  KVec kf_min_ = KVec::Ones();  ///< the smallest K_f since the last discount
   KMlCounters counters_{};
 };
 

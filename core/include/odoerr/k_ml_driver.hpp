@@ -30,6 +30,7 @@ class MlDriver {
 
   MlDriver(const Est& est, const KMlConfig<S>& cfg) : akf_(est.akf()), map_(est.map()), laser_(est.laser()), ml_(cfg) {
     ml_.init(est.of().estimate());
+    for (int j = 0; j < N; ++j) prior_var_[j] = akf_.covariance()(j, j);
   }
 
   void cycle(const typename Model::Input& u, const S* ranges) {
@@ -60,7 +61,7 @@ class MlDriver {
         }
       }
     }
-    ml_.endCycle();
+    if (ml_.endCycle() && ml_.filterKGrowth() > S(1)) discount(ml_.filterKGrowth());
   }
 
   const AkfT& akf() const { return akf_; }
@@ -72,6 +73,23 @@ class MlDriver {
   S logLikelihood() const { return loglik_; }
 
  private:
+  /// When the K the AKF predicts with rises by `growth`, what the AKF learnt of the
+  /// systematic parameters under the smaller K was overconfident: their variances (and
+  /// their covariances, by the same factors) are scaled up by growth, but not above the
+  /// prior's (KMlConfig::discount; measured in docs/nonsystematic.md: with K 100x too small
+  /// for the first metre and then right, E_theta's spread at 30 m was 78 % against 18 %).
+  ODOERR_NOINLINE void discount(S growth) {
+    if (!ml_.config().discount) return;
+    S d[N];
+    const auto& p = akf_.covariance();
+    for (int j = 0; j < N; ++j) {
+      const S cap = j >= 3 && p(j, j) > S(0) ? prior_var_[j] / p(j, j) : S(1);
+      const S r = std::min(growth, cap);
+      d[j] = r > S(1) ? std::sqrt(r) : S(1);
+    }
+    akf_.scaleParameterCovariance(d);
+  }
+
   /// The kBeam form's scan: every fused beam's row by a second ray cast at the state before
   /// it (out of line: the firmware's form is kPose, and its cycle stays compact).
   ODOERR_NOINLINE void fuseBeams(const S* ranges) {
@@ -102,6 +120,7 @@ class MlDriver {
   typename Est::MapT map_;
   typename Est::LaserT laser_;
   MlT ml_;
+  S prior_var_[N];  ///< the AKF's initial variances: discount() does not go above them
   S loglik_ = S(0);
 };
 
