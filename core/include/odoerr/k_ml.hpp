@@ -79,10 +79,10 @@ struct KMlConfig {
   S inflate_offset = S(0.3);
   /// The driver's form of the update (KMlForm).
   KMlForm form = KMlForm::kPose;
-  /// When the filter K rises, the driver discounts what the AKF knew of the systematic
-  /// parameters by the same factor, up to their prior (MlDriver::discount).
+  /// When K rises, what the AKF knew of the systematic parameters is discounted by the same
+  /// factor, up to their prior (overstatement(), MlDriver::discount; false: never).
   bool discount = true;
-  /// Only a rise beyond this factor is discounted (filterKGrowth).
+  /// Only a rise beyond this factor is discounted (overstatement).
   S discount_above = S(2);
 };
 
@@ -131,7 +131,7 @@ class KMaxLikelihood {
     cycles_ = 0;
     taken_ = 0;
     updateFilterK();
-    growth_ = S(1);
+    overstated_ = S(1);
     kf_min_ = kf_;
   }
 
@@ -143,7 +143,7 @@ class KMaxLikelihood {
   /// seen at the last step: the largest K / (the smallest K_f the AKF has predicted with
   /// since the last such discount) over the components when above
   /// KMlConfig::discount_above, else 1 (MlDriver discounts the AKF's parameters by it).
-  S filterKGrowth() const { return growth_; }
+  S overstatement() const { return overstated_; }
   /// Covariance of K from the accumulated information (J^-1 in log K, mapped to K).
   KMat covariance() const {
     KMat c = KMat::Zero();
@@ -566,8 +566,8 @@ class KMaxLikelihood {
     // rise counts, so that the steps' wander about the truth does not add up to forgetting.
     S g = S(1);
     for (int i = 0; i < M; ++i) g = std::max(g, k_[i] / kf_min_[i]);
-    growth_ = g > cfg_.discount_above ? g : S(1);
-    for (int i = 0; i < M; ++i) kf_min_[i] = growth_ > S(1) ? kf_[i] : std::min(kf_min_[i], kf_[i]);
+    overstated_ = cfg_.discount && g > cfg_.discount_above ? g : S(1);
+    for (int i = 0; i < M; ++i) kf_min_[i] = overstated_ > S(1) ? kf_[i] : std::min(kf_min_[i], kf_[i]);
     return true;
   }
 
@@ -605,7 +605,7 @@ class KMaxLikelihood {
   S lambda_ = S(0.9);
   int cycles_ = 0;
   int taken_ = 0;  ///< scans (or beams) taken since the last step
-  S growth_ = S(1);
+  S overstated_ = S(1);
   KVec kf_min_ = KVec::Ones();  ///< the smallest K_f since the last discount
   KMlCounters counters_{};
 };

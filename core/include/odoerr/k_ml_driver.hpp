@@ -61,7 +61,7 @@ class MlDriver {
         }
       }
     }
-    if (ml_.endCycle() && ml_.filterKGrowth() > S(1)) discount(ml_.filterKGrowth());
+    if (ml_.endCycle() && ml_.overstatement() > S(1)) discount(ml_.overstatement());
   }
 
   const AkfT& akf() const { return akf_; }
@@ -73,21 +73,19 @@ class MlDriver {
   S logLikelihood() const { return loglik_; }
 
  private:
-  /// When the K the AKF predicts with rises by `growth`, what the AKF learnt of the
-  /// systematic parameters under the smaller K was overconfident: their variances (and
-  /// their covariances, by the same factors) are scaled up by growth, but not above the
-  /// prior's (KMlConfig::discount; measured in docs/nonsystematic.md: with K 100x too small
-  /// for the first metre and then right, E_theta's spread at 30 m was 78 % against 18 %).
-  ODOERR_NOINLINE void discount(S growth) {
-    if (!ml_.config().discount) return;
+  /// What the AKF learnt of the systematic parameters under a K `factor` times too small
+  /// was overconfident (KMaxLikelihood::overstatement): their variances (and covariances,
+  /// by the same factors) are scaled up by factor, but not above the prior's (measured in
+  /// docs/nonsystematic.md: with K 100x too small for the first metre and then right,
+  /// E_theta's spread at 30 m was 78 % against 18 %).
+  ODOERR_NOINLINE void discount(S factor) {
     S d[N];
     const auto& p = akf_.covariance();
-    for (int j = 0; j < N; ++j) {
-      const S cap = j >= 3 && p(j, j) > S(0) ? prior_var_[j] / p(j, j) : S(1);
-      const S r = std::min(growth, cap);
+    for (int j = 3; j < N; ++j) {
+      const S r = p(j, j) > S(0) ? std::min(factor, prior_var_[j] / p(j, j)) : S(1);
       d[j] = r > S(1) ? std::sqrt(r) : S(1);
     }
-    akf_.scaleParameterCovariance(d);
+    akf_.scaleParameterCovariance(d);  // reads d[3..N-1]
   }
 
   /// The kBeam form's scan: every fused beam's row by a second ray cast at the state before
