@@ -36,8 +36,9 @@ def main():
     check(set(s) == (keys | {"ml"} if s.get("of") == "ml" else keys), "top-level keys")
     if s.get("of") == "ml":
         check(set(s["ml"]) == {"every", "reset_log", "inflate", "inflate_cap", "form", "discount",
-                                "discount_above", "reset_keep"}
-              and s["ml"]["form"] in ("pose", "scan", "beam"), "ml settings")
+                                "discount_above", "reset_keep", "shift", "deflate"}
+              and s["ml"]["form"] in ("pose", "scan", "beam") and s["ml"]["shift"] in ("scale", "line"),
+              "ml settings")
     check(s["path"] in ("circle", "eight"), "path is circle or eight")
     check(0 < s["radius_m"] <= (5 if s["path"] == "circle" else 2.5), "radius inside the room")
     check(s["of"] in ("paper", "ml"), "of is paper or ml")

@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <random>
 #include <utility>
 #include <vector>
 
@@ -122,14 +123,19 @@ struct McStats {
   double sys2_sigma = 0;        ///< its mean reported sigma / truth
 };
 
-/// A small Monte Carlo of `runs` closed-loop drives of `metres` with --of ml from `start`.
+/// A small Monte Carlo of `runs` closed-loop drives of `metres` with --of ml from `start`
+/// (on the circle, or the figure-eight when `eight`).
 template <template <typename> class DriveT>
 McStats monteCarlo(int runs, int metres, NonSysStart start, const KMlConfig<double>& mc,
-                   OfKind of = OfKind::kMl) {
+                   OfKind of = OfKind::kMl, bool eight = false) {
   using D = DriveT<double>;
   using L = TraceLayout<D>;
   SimConfig cfg;
   cfg.steps = metres * 100;
+  if (eight) {  // as odoerr paper --path eight
+    cfg.figure_eight = true;
+    cfg.radius = 2.0;
+  }
   FilterSetup setup;
   PaperSim<D> sim(cfg, 0);
   const auto kt = sim.trueNonSys();
@@ -200,7 +206,7 @@ TEST(KMl, FilterKInflatedWhileNoInformation) {
   EXPECT_EQ(plain.filterK(), k0);
 }
 
-// From 100x below the truth, 20 runs of 10 m on the sync drive: with the restarts and the
+// From 100x below the truth, 100 runs of 10 m on the sync drive: with the restarts and the
 // inflated filter K (the defaults) K reaches the truth's neighbourhood, the reported sigma
 // follows the spread, and delta_rho keeps its spread near the plain recursion's (no restart,
 // no inflation, printed beside them) and under the paper OF's.
@@ -209,10 +215,10 @@ TEST(KMl, ConvergesFromBelowSync) {
   KMlConfig<double> old = def;
   old.reset_log = 0;
   old.inflate = 0;
-  const McStats below = monteCarlo<SyncDrive>(20, 10, NonSysStart::kSmall, def);
-  const McStats above = monteCarlo<SyncDrive>(20, 10, NonSysStart::kLarge, def);
-  const McStats below_old = monteCarlo<SyncDrive>(20, 10, NonSysStart::kSmall, old);
-  const McStats below_of = monteCarlo<SyncDrive>(20, 10, NonSysStart::kSmall, def, OfKind::kPaper);
+  const McStats below = monteCarlo<SyncDrive>(100, 10, NonSysStart::kSmall, def);
+  const McStats above = monteCarlo<SyncDrive>(100, 10, NonSysStart::kLarge, def);
+  const McStats below_old = monteCarlo<SyncDrive>(100, 10, NonSysStart::kSmall, old);
+  const McStats below_of = monteCarlo<SyncDrive>(100, 10, NonSysStart::kSmall, def, OfKind::kPaper);
   print("below (defaults)", below);
   print("below (the paper's OF)", below_of);
   print("above (defaults)", above);
@@ -224,12 +230,13 @@ TEST(KMl, ConvergesFromBelowSync) {
     EXPECT_GT(honesty, 0.5) << "K" << i << " sigma too small against the spread";
     EXPECT_LT(honesty, 2.0) << "K" << i << " sigma too large against the spread";
   }
-  // delta_rho's spread from below at 10 m: near the plain recursion's and under the paper's
-  // OF's from the same start (printed: 1.09x and 0.79x; the discount, which reopens delta_rho
-  // while K climbs, costs it a little at 10 m; at 30 m it is 0.5 % like the OF's,
-  // docs/nonsystematic.md).
-  EXPECT_LT(below.sys_spread, 1.3 * below_old.sys_spread) << "delta_rho damaged from below";
-  EXPECT_LT(below.sys_spread, 1.0 * below_of.sys_spread) << "delta_rho damaged from below";
+  // delta_rho's spread from below at 10 m: near the plain recursion's and the paper OF's from
+  // the same start (printed: 1.05x and 1.02x; the discount, which reopens delta_rho while K
+  // climbs, costs it a little at 10 m; at 30 m it is 0.55 % like the OF's 0.54 %,
+  // docs/nonsystematic.md). 20 runs were too few to tell: their ratio to the OF moved
+  // between 0.8x and 1.1x with changes that moved 300 runs' by 4 %.
+  EXPECT_LT(below.sys_spread, 1.2 * below_old.sys_spread) << "delta_rho damaged from below";
+  EXPECT_LT(below.sys_spread, 1.1 * below_of.sys_spread) << "delta_rho damaged from below";
 }
 
 // From 100x below, what the AKF learns of the systematic parameters while the K it predicts
@@ -254,6 +261,80 @@ TEST(KMl, DiscountKeepsEThetaFromBelowSync) {
   EXPECT_GT(honesty, 1 / 1.5);
   EXPECT_LT(honesty, 1.5);
   EXPECT_LT(on.sys_spread, 1.3 * of.sys_spread) << "delta_rho";
+}
+
+// The variance-scale model of the score (KMlConfig::scale_shift) against the score computed
+// beam by beam: with every beam's share of s from K equal it is exact, whatever the
+// innovations; with no innovation (saturated data) it stays at -h while the Gauss-Newton line
+// climbs by I d.
+TEST(KMl, ScaleShiftedScoreIsExactForEqualShares) {
+  std::mt19937 rng(7);
+  std::normal_distribution<double> n01(0, 1);
+  std::uniform_real_distribution<double> u(0.2, 3.0);
+  const double kf = 2e-3;
+  for (const double abar : {0.1, 0.5, 0.9, 1.0}) {
+    for (const double d : {0.01, 0.5, 2.0, 4.6}) {
+      for (const double nis_scale : {0.0, 0.02, 1.0, 5.0}) {
+        // beam j: s_j(K) = c_j (1 - abar) + c_j abar K / kf, so its share at K_f is abar
+        double g = 0, h = 0, exact = 0;
+        const double k = kf * std::exp(-d);
+        for (int j = 0; j < 40; ++j) {
+          const double c = u(rng);
+          const double nu = std::sqrt(nis_scale * c) * n01(rng);
+          const double sf = c;
+          g += -0.5 * abar * (1 - nu * nu / sf);
+          h += 0.5 * abar;
+          const double sk = c * (1 - abar) + c * abar * k / kf;
+          const double ak = c * abar * k / kf / sk;
+          exact += -0.5 * ak * (1 - nu * nu / sk);
+        }
+        EXPECT_NEAR(scaleShiftedScore(g, h, abar, d), exact, 1e-9 * (1 + std::abs(exact)))
+            << "abar " << abar << " d " << d << " nis " << nis_scale;
+      }
+    }
+  }
+  // Saturated (g = -h): the model stays at -h; the line g + I d with I = abar h climbs.
+  const double h = 5, abar = 1;
+  EXPECT_NEAR(scaleShiftedScore(-h, h, abar, 2.0), -h, 1e-12);
+  EXPECT_GT(-h + abar * h * 2.0, 0.0);
+  // Near the maximum (g = 0) both agree to first order.
+  const double dd = 1e-4;
+  EXPECT_NEAR(scaleShiftedScore(0.0, h, 0.4, dd), 0.4 * h * dd, 1e-6);
+}
+
+// From 100x above, 20 runs of 1 m on the sync drive: the line (scale_shift off) turns the
+// saturated score into a push upwards, so K has come down far less (printed; 300 runs:
+// 38x against 8x the truth at 1 m, docs/nonsystematic.md).
+TEST(KMl, ScaleShiftDescendsFromAboveSync) {
+  const KMlConfig<double> def;
+  ASSERT_TRUE(def.scale_shift);
+  KMlConfig<double> line = def;
+  line.scale_shift = false;
+  const McStats s = monteCarlo<SyncDrive>(20, 1, NonSysStart::kLarge, def);
+  const McStats l = monteCarlo<SyncDrive>(20, 1, NonSysStart::kLarge, line);
+  std::printf("K / truth at 1 m from 100x above: scale shift %.1fx %.1fx, line %.1fx %.1fx\n", s.k_ratio[0],
+              s.k_ratio[1], l.k_ratio[0], l.k_ratio[1]);
+  for (int i = 0; i < 2; ++i) EXPECT_LT(s.k_ratio[i], 0.5 * l.k_ratio[i]) << "K" << i;
+}
+
+// The differential drive on the figure-eight from 100x below, 100 runs of 30 m: deflating each
+// step's information on K_w by delta_d's uncertainty (KMlConfig::deflate) narrows K_w's spread
+// (printed; docs/nonsystematic.md) and keeps its mean and its sigma honest.
+TEST(KMl, DeflationNarrowsKwFromBelowOnTheEight) {
+  const KMlConfig<double> def;
+  ASSERT_TRUE(def.deflate);
+  KMlConfig<double> whole = def;
+  whole.deflate = false;
+  const McStats on = monteCarlo<DiffDrive>(100, 30, NonSysStart::kSmall, def, OfKind::kMl, true);
+  const McStats off = monteCarlo<DiffDrive>(100, 30, NonSysStart::kSmall, whole, OfKind::kMl, true);
+  std::printf("K_w at 30 m from below on the eight: deflated %.3fx spread %.3f sigma %.3f, whole %.3fx spread %.3f "
+              "sigma %.3f\n",
+              on.k_ratio[0], on.k_spread[0], on.k_sigma[0], off.k_ratio[0], off.k_spread[0], off.k_sigma[0]);
+  EXPECT_LT(on.k_spread[0], 0.95 * off.k_spread[0]);
+  EXPECT_NEAR(on.k_ratio[0], 1.0, 0.05);
+  const double honesty = on.k_sigma[0] / on.k_spread[0];
+  EXPECT_GT(honesty, 1 / 1.5);
+  EXPECT_LT(honesty, 1.5);
 }
 
 // The reported covariance of K_w carries delta_d's uncertainty (the data fix K_w / delta_d^2):
@@ -413,7 +494,7 @@ TEST_F(KMlScan, BlindStretchForgetsNothing) {
     predict(&ml, est.akf().model(), x, u);
     const Eigen::Matrix<double, N, 3> p3 = p.leftCols<3>();
     ASSERT_TRUE((ml.scan<3, 3>(p3, x.head<3>(), p_post, x)));
-    (void)ml.endCycle();
+    (void)ml.endCycle(KMaxLikelihood<Model>::StateVec::Zero(), KMaxLikelihood<Model>::StateMat::Zero());
   }
   const auto steps = ml.counters().steps;
   ASSERT_GT(steps, 0u);
@@ -423,7 +504,7 @@ TEST_F(KMlScan, BlindStretchForgetsNothing) {
   ASSERT_GT(kf[0], k[0]) << "the test needs the inflation active";
   for (int cycle = 0; cycle < 50; ++cycle) {
     predict(&ml, est.akf().model(), x, u);
-    EXPECT_FALSE(ml.endCycle());
+    EXPECT_FALSE(ml.endCycle(KMaxLikelihood<Model>::StateVec::Zero(), KMaxLikelihood<Model>::StateMat::Zero()));
   }
   EXPECT_EQ(ml.counters().idle, 50u);
   EXPECT_EQ(ml.counters().steps, steps);
@@ -434,6 +515,6 @@ TEST_F(KMlScan, BlindStretchForgetsNothing) {
   predict(&ml, est.akf().model(), x, u);
   const Eigen::Matrix<double, N, 3> p3 = p.leftCols<3>();
   ASSERT_TRUE((ml.scan<3, 3>(p3, x.head<3>(), p_post, x)));
-  EXPECT_TRUE(ml.endCycle());
+  EXPECT_TRUE(ml.endCycle(KMaxLikelihood<Model>::StateVec::Zero(), KMaxLikelihood<Model>::StateMat::Zero()));
   EXPECT_EQ(ml.counters().steps, steps + 1);
 }

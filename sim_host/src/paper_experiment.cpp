@@ -210,7 +210,9 @@ std::string summaryJson(const PaperResult& r) {
                {"form", toString(r.ml.form)},
                {"discount", r.ml.discount},
                {"discount_above", r.ml.discount_above},
-               {"reset_keep", r.ml.reset_keep}};
+               {"reset_keep", r.ml.reset_keep},
+               {"shift", r.ml.scale_shift ? "scale" : "line"},
+               {"deflate", r.ml.deflate}};
   }
   j["path"] = r.figure_eight ? "eight" : "circle";
   j["radius_m"] = r.radius_m;

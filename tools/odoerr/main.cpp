@@ -171,6 +171,8 @@ int main(int argc, char** argv) {
   double ml_inflate = KMlConfig<double>{}.inflate;
   std::string ml_form = "pose";
   bool ml_no_discount = false;
+  bool ml_line_shift = false;
+  bool ml_no_deflate = false;
   double ml_reset_keep = KMlConfig<double>{}.reset_keep;
   double ml_discount_above = KMlConfig<double>{}.discount_above;
   double ml_inflate_cap = std::round(std::exp(KMlConfig<double>{}.max_inflate_log));
@@ -216,6 +218,12 @@ int main(int argc, char** argv) {
                     "predicted with since the last discount")
       ->check(CLI::Range(1.0, 100.0))
       ->capture_default_str();
+  paper->add_flag("--ml-line-shift", ml_line_shift,
+                  "ml: carry the score from the inflated K to K along the Gauss-Newton line alone (by "
+                  "default the smaller of the line and the variance-scale model)");
+  paper->add_flag("--ml-no-deflate", ml_no_deflate,
+                  "ml, diff drive: keep each step's information on K_w whole (by default it is deflated "
+                  "by delta_d's uncertainty)");
   paper->add_option("--ml-reset-keep", ml_reset_keep, "ml: the share of the information a restart keeps (0..1)")
       ->check(CLI::Range(0.0, 1.0))
       ->capture_default_str();
@@ -296,6 +304,8 @@ int main(int argc, char** argv) {
     mlc.reset_keep = ml_reset_keep;
     mlc.discount_above = ml_discount_above;
     (void)parseKMlForm(ml_form, &mlc.form);  // CLI11 has checked the name
+    mlc.scale_shift = !ml_line_shift;
+    mlc.deflate = !ml_no_deflate;
     return runPaper(drive, runs, out, seed, threads, !no_plots, pose_term, window, of_kind, mlc, path, radius);
   }
   if (replay->parsed()) {

@@ -33,69 +33,9 @@
 #include <Eigen/Cholesky>
 
 #include "odoerr/akf.hpp"
+#include "odoerr/k_ml_config.hpp"
 
 namespace odoerr {
-
-/// The form of the ML recursion's update (KMlConfig::form, MlDriver):
-///  - kPose (default): each fused scan whole (scan<Hc, Hc>), with the sensitivities carried
-///    on the measured states only (the pose): dP/dK and d xhat/dK of the systematic
-///    parameters are left out. The score stays an unbiased estimating equation (its weights
-///    depend on the past only); on the paper's drives it moves by under 0.1 of its standard
-///    deviation, and the figures at 30 m are as good or better (docs/nonsystematic.md).
-///    The firmware's form: O(Hc^3) a scan.
-///  - kScan: each fused scan whole, all sensitivities (scan<Hc, N>): the same score as kBeam.
-///  - kBeam: each fused beam (beam(): a second ray cast for its row, O(N^2) a beam): the
-///    reference the others are tested against (test_k_ml.cpp).
-enum class KMlForm { kPose, kScan, kBeam };
-
-template <typename S>
-struct KMlConfig {
-  int every = 10;                 ///< cycles between K steps
-  S max_log_step = S(0.5);        ///< |delta log K| per step at most
-  S lambda0 = S(0.9);             ///< initial forgetting factor
-  S lambda_rate = S(0.98);        ///< lambda <- rate lambda + (1 - rate)  (towards 1)
-  /// Stale information: when log K has moved by more than reset_log (any component) since
-  /// the last restart, the sensitivities dP/dK, d xhat/dK are dropped, J is scaled by reset_keep and lambda
-  /// restarts at lambda0 (0: off). Gathered at a K far from the current one, they no longer
-  /// describe the likelihood there: the sensitivities of the systematic-parameter states,
-  /// built while the innovations were large, decay slowly and inflate the information, so
-  /// the steps stall and sigma is too small (measured: docs/nonsystematic.md).
-  S reset_log = S(1.5);
-  /// The share of J a restart keeps. Emptied (0), J let the inflation jump to its cap at
-  /// each restart (K_f 30x the estimate); once, on a blind stretch, that lost the pose from
-  /// below (seed 1059: docs/nonsystematic.md).
-  S reset_keep = S(0.3);
-  /// Decoupling the AKF's Q from the estimate while K is uncertain: the AKF runs with
-  /// K_f = K exp(min(inflate sigma_logK - inflate_offset, max_inflate_log)) when that exponent
-  /// is positive, else K (inflate 0: off); sigma_logK from J (max_inflate_log while J is not
-  /// positive definite). The score then comes at K_f; the step is taken for K with the
-  /// Gauss-Newton correction g(K) = g(K_f) + I (log K_f - log K).
-  S inflate = S(2);
-  /// log 30: 100 (the paper's starting factor) let one run of 400 lose the pose from above
-  /// on the figure-eight (Q 10^4 times too large at the start); 30 loses none (measured).
-  S max_inflate_log = S(3.4011974);
-  /// The offset ends the inflation once K is known to about inflate_offset / inflate in log
-  /// (15 %), so that K_f = K at the end of a drive.
-  S inflate_offset = S(0.3);
-  /// The driver's form of the update (KMlForm).
-  KMlForm form = KMlForm::kPose;
-  /// When K rises, what the AKF knew of the systematic parameters is discounted by the same
-  /// factor, up to their prior (overstatement(), MlDriver::discount; false: never).
-  bool discount = true;
-  /// Only a rise beyond this factor is discounted (overstatement).
-  S discount_above = S(2);
-};
-
-struct KMlCounters {
-  std::uint32_t steps = 0;
-  std::uint32_t clipped = 0;   ///< steps limited by max_log_step
-  std::uint32_t skipped = 0;   ///< steps refused (information not positive definite)
-  std::uint32_t beams = 0;
-  std::uint32_t resets = 0;    ///< restarts of J and the sensitivities (reset_log)
-  std::uint32_t scans = 0;     ///< scans taken whole (scan())
-  std::uint32_t scans_skipped = 0;  ///< scans refused by scan(): P_prior not positive definite
-  std::uint32_t idle = 0;      ///< steps not taken: nothing fused since the last one
-};
 
 template <typename ModelT>
 class KMaxLikelihood {
@@ -124,6 +64,7 @@ class KMaxLikelihood {
       xi_[i].setZero();
     }
     g_.setZero();
+    h_.setZero();
     info_.setZero();
     j_.setZero();
     k_ref_ = k0;
@@ -264,6 +205,7 @@ class KMaxLikelihood {
     const S nis = nu * nu / s;
     for (int i = 0; i < M; ++i) {
       g_[i] += S(-0.5) * ds[i] / s * (S(1) - nis) + nu * a[i] / s;
+      h_[i] += S(0.5) * ds[i] / s;
       for (int j = 0; j < M; ++j) info_(i, j) += S(0.5) * ds[i] * ds[j] / (s * s) + a[i] * a[j] / s;
     }
     for (int i = 0; i < M; ++i) {
@@ -438,6 +380,7 @@ class KMaxLikelihood {
         vx += v[j] * xi_[i][j];
       }
       g_[i] += S(-0.5) * tr + S(0.5) * vdv + vx;
+      h_[i] += S(0.5) * tr;
       for (int m = 0; m <= i; ++m) {
         // 1/2 tr(E_i E_m) + xi_i,h^T C xi_m,h; tr(E_i E_m) = sum_jk E_i(j, k) E_m(k, j)
         S t = S(0);
@@ -498,15 +441,15 @@ class KMaxLikelihood {
   }
 
   /// At the end of a cycle: a K step every `every` cycles. Returns true when K moved.
-  bool endCycle() {
+  bool endCycle(const StateVec& x, const StateMat& p) {
     if (++cycles_ < cfg_.every) return false;
     cycles_ = 0;
-    return step();
+    return step(x, p);
   }
 
  private:
   /// The K step of endCycle (out of line: it runs one cycle in `every`).
-  ODOERR_NOINLINE bool step() {
+  ODOERR_NOINLINE bool step(const StateVec& x, const StateMat& p) {
     // Nothing fused since the last step (a blind stretch: no beam the map explains): no
     // step, and no forgetting either. Forgetting J per step rather than per information
     // would let sigma, and with it the inflated K the AKF predicts with, grow for as long
@@ -517,17 +460,20 @@ class KMaxLikelihood {
       return false;
     }
     taken_ = 0;
+    if constexpr (std::is_same_v<Drive, DiffDrive<S>>) {
+      if (cfg_.deflate) deflateBySystematic(x, p);
+    } else {
+      (void)x;
+      (void)p;
+    }
     const KMat dk = kf_.asDiagonal();
     const KMat info_t = dk * info_ * dk;
     KVec g_t = dk * g_;
-    if (cfg_.inflate > S(0)) {
-      KVec dtheta;
-      for (int i = 0; i < M; ++i) dtheta[i] = std::log(kf_[i] / k_[i]);
-      g_t += info_t * dtheta;
-    }
+    if (cfg_.inflate > S(0)) shiftScore(info_t, &g_t);
     j_ = lambda_ * j_ + info_t;
     lambda_ = cfg_.lambda_rate * lambda_ + (S(1) - cfg_.lambda_rate);
     g_.setZero();
+    h_.setZero();
     info_.setZero();
     Eigen::LLT<KMat> llt(j_);
     if (llt.info() != Eigen::Success || !g_t.allFinite()) {
@@ -571,6 +517,43 @@ class KMaxLikelihood {
     return true;
   }
 
+  /// The score at K_f carried to K (g_t: at K_f on entry, in log K), KMlConfig::scale_shift:
+  /// the smaller of the Gauss-Newton line and scaleShiftedScore with abar = I_ii / h_i. The
+  /// two agree near K_f; where the data are saturated (g = -h: no innovation left) the line
+  /// pushes K up by I D while the model stays at -h, and where little of s comes from K the
+  /// model's curvature overstates the rise (measured: K_rho 1.02x at 30 m with it alone).
+  void shiftScore(const KMat& info_t, KVec* g_t) const {
+    KVec dtheta;
+    for (int i = 0; i < M; ++i) dtheta[i] = std::log(kf_[i] / k_[i]);
+    const KVec line = *g_t + info_t * dtheta;
+    if (!cfg_.scale_shift) {
+      *g_t = line;
+      return;
+    }
+    for (int i = 0; i < M; ++i) {
+      const S h = kf_[i] * h_[i];
+      S g = line[i];
+      if (h > S(0) && dtheta[i] > S(0)) {
+        g = std::min(g, scaleShiftedScore((*g_t)[i], h, std::min(info_t(i, i) / h, S(1)), dtheta[i]));
+      }
+      (*g_t)[i] = g;
+    }
+  }
+
+  /// KMlConfig::deflate (differential drive): this step's score and information on K_w
+  /// scaled by 1 / (1 + I v), v = 4 P_dd / delta_d^2 (x, p: the AKF's state and covariance).
+  void deflateBySystematic(const StateVec& x, const StateMat& p) {
+    constexpr int kD = Model::kDriveOffset + Drive::kDeltaD;
+    const S dd = x[kD];
+    if (!(dd > S(0)) || !(p(kD, kD) >= S(0))) return;
+    const S v = S(4) * p(kD, kD) / (dd * dd);
+    const S kw = kf_[Drive::kKw];
+    const S f = S(1) / (S(1) + kw * kw * info_(Drive::kKw, Drive::kKw) * v);
+    info_ *= f;
+    g_ *= f;
+    h_ *= f;
+  }
+
   /// J^-1 from its factor (info() checked by the caller), one column at a time: a solve with
   /// a matrix right-hand side goes through Eigen's blocked triangular solve, which refers
   /// to malloc, and the firmware's link refuses that (heap trap).
@@ -607,6 +590,7 @@ class KMaxLikelihood {
   int taken_ = 0;  ///< scans (or beams) taken since the last step
   S overstated_ = S(1);
   KVec kf_min_ = KVec::Ones();  ///< the smallest K_f since the last discount
+  KVec h_ = KVec::Zero();  ///< 1/2 tr(C dP_i): what the score of K_i would be with no innovation
   KMlCounters counters_{};
 };
 

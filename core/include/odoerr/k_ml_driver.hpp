@@ -61,7 +61,7 @@ class MlDriver {
         }
       }
     }
-    if (ml_.endCycle() && ml_.overstatement() > S(1)) discount(ml_.overstatement());
+    if (ml_.endCycle(akf_.state(), akf_.covariance()) && ml_.overstatement() > S(1)) discount(ml_.overstatement());
   }
 
   const AkfT& akf() const { return akf_; }

@@ -1,0 +1,97 @@
+// odoerr core: the settings, counters and score model of the recursive maximum-likelihood
+// estimator of K (k_ml.hpp): what a caller configures and reads, apart from the recursion.
+#pragma once
+
+#include <cmath>
+#include <cstdint>
+
+namespace odoerr {
+
+/// The form of the ML recursion's update (KMlConfig::form, MlDriver):
+///  - kPose (default): each fused scan whole (scan<Hc, Hc>), with the sensitivities carried
+///    on the measured states only (the pose): dP/dK and d xhat/dK of the systematic
+///    parameters are left out. The score stays an unbiased estimating equation (its weights
+///    depend on the past only); on the paper's drives it moves by under 0.1 of its standard
+///    deviation, and the figures at 30 m are as good or better (docs/nonsystematic.md).
+///    The firmware's form: O(Hc^3) a scan.
+///  - kScan: each fused scan whole, all sensitivities (scan<Hc, N>): the same score as kBeam.
+///  - kBeam: each fused beam (beam(): a second ray cast for its row, O(N^2) a beam): the
+///    reference the others are tested against (test_k_ml.cpp).
+enum class KMlForm { kPose, kScan, kBeam };
+
+template <typename S>
+struct KMlConfig {
+  int every = 10;                 ///< cycles between K steps
+  S max_log_step = S(0.5);        ///< |delta log K| per step at most
+  S lambda0 = S(0.9);             ///< initial forgetting factor
+  S lambda_rate = S(0.98);        ///< lambda <- rate lambda + (1 - rate)  (towards 1)
+  /// Stale information: when log K has moved by more than reset_log (any component) since
+  /// the last restart, the sensitivities dP/dK, d xhat/dK are dropped, J is scaled by reset_keep and lambda
+  /// restarts at lambda0 (0: off). Gathered at a K far from the current one, they no longer
+  /// describe the likelihood there: the sensitivities of the systematic-parameter states,
+  /// built while the innovations were large, decay slowly and inflate the information, so
+  /// the steps stall and sigma is too small (measured: docs/nonsystematic.md).
+  S reset_log = S(1.5);
+  /// The share of J a restart keeps. Emptied (0), J let the inflation jump to its cap at
+  /// each restart (K_f 30x the estimate); once, on a blind stretch, that lost the pose from
+  /// below (seed 1059: docs/nonsystematic.md).
+  S reset_keep = S(0.3);
+  /// Decoupling the AKF's Q from the estimate while K is uncertain: the AKF runs with
+  /// K_f = K exp(min(inflate sigma_logK - inflate_offset, max_inflate_log)) when that exponent
+  /// is positive, else K (inflate 0: off); sigma_logK from J (max_inflate_log while J is not
+  /// positive definite). The score then comes at K_f; the step is taken for K with the
+  /// Gauss-Newton correction g(K) = g(K_f) + I (log K_f - log K).
+  S inflate = S(2);
+  /// log 30: 100 (the paper's starting factor) let one run of 400 lose the pose from above
+  /// on the figure-eight (Q 10^4 times too large at the start); 30 loses none (measured).
+  S max_inflate_log = S(3.4011974);
+  /// The offset ends the inflation once K is known to about inflate_offset / inflate in log
+  /// (15 %), so that K_f = K at the end of a drive.
+  S inflate_offset = S(0.3);
+  /// How the score at K_f is carried to K (inflate > 0): true, the smaller of the
+  /// Gauss-Newton line g + I (log K_f - log K) and the variance-scale model (each beam's s =
+  /// r + q K: exact where all of s comes from K); false, the line alone. Far above the truth
+  /// the data are saturated (nu^2 << s, the step at most -1 in log K) and the line turned
+  /// that into a push upwards; measured from 100x above: K_rho 8x the truth at 1 m with the
+  /// line, E_theta 19.1 % against 19.7 % at 30 m (docs/nonsystematic.md).
+  bool scale_shift = true;
+  /// Differential drive: each step's information on K_w is deflated by delta_d's share,
+  /// I / (1 + I 4 P_dd / delta_d^2): the heading noise fixes K_w / delta_d^2, so what was
+  /// gathered while delta_d was uncertain says less of K_w (figure-eight from below: 6.8 ->
+  /// 5.7 %). No effect on the synchronous drive, whose Q does not depend on its parameters.
+  bool deflate = true;
+  /// The driver's form of the update (KMlForm).
+  KMlForm form = KMlForm::kPose;
+  /// When K rises, what the AKF knew of the systematic parameters is discounted by the same
+  /// factor, up to their prior (overstatement(), MlDriver::discount; false: never).
+  bool discount = true;
+  /// Only a rise beyond this factor is discounted (overstatement).
+  S discount_above = S(2);
+};
+
+struct KMlCounters {
+  std::uint32_t steps = 0;
+  std::uint32_t clipped = 0;   ///< steps limited by max_log_step
+  std::uint32_t skipped = 0;   ///< steps refused (information not positive definite)
+  std::uint32_t beams = 0;
+  std::uint32_t resets = 0;    ///< restarts of J and the sensitivities (reset_log)
+  std::uint32_t scans = 0;     ///< scans taken whole (scan())
+  std::uint32_t scans_skipped = 0;  ///< scans refused by scan(): P_prior not positive definite
+  std::uint32_t idle = 0;      ///< steps not taken: nothing fused since the last one
+};
+
+/// The score in log K carried down by d = log K_f - log K >= 0 under the variance-scale
+/// model (KMlConfig::scale_shift): every beam's s = r + q K, with abar the share of s that
+/// comes from K (the same for every beam), so that going down by d each s scales by
+/// phi = 1 - abar + abar e^-d. From g (the score at K_f), h (1/2 the sum of the shares:
+/// g's value with no innovation) and abar: e^-d / phi (-h + (g + h) / phi). Exact when the
+/// shares are equal (test_k_ml.cpp). Near the maximum (g = 0) it is abar h d to first order,
+/// the Gauss-Newton line's I d with the information 1/2 sum abar^2 = abar h.
+template <typename S>
+S scaleShiftedScore(S g, S h, S abar, S d) {
+  const S e = std::exp(-d);
+  const S phi = S(1) - abar + abar * e;
+  return e / phi * (-h + (g + h) / phi);
+}
+
+}  // namespace odoerr
