@@ -2,6 +2,7 @@
 // and short Monte Carlo runs of both drives (convergence and pose error).
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <limits>
 
 #include "odoerr/effects/catalogue.hpp"
@@ -124,6 +125,31 @@ TEST(AkfHygiene, ScaleParameterCovarianceIsACongruence) {
   const Eigen::Matrix3d pose_before = (p * 1e-4).topLeftCorner<3, 3>();
   const Eigen::Matrix3d pose_after = akf.covariance().topLeftCorner<3, 3>();
   EXPECT_EQ(pose_after, pose_before);
+}
+
+TEST(AkfHygiene, BeamThatWouldMakeADiagonalNonPositiveIsRefused) {
+  // A covariance that has lost positive definiteness (x and delta_rho "correlated" 10x more
+  // than their variances allow): fusing beam 18 (+x) would take delta_rho's variance below
+  // zero. The beam is refused and counted, and neither the state nor P moves; with the
+  // correlation inside its bounds the same beam is fused.
+  SegmentMap<double, 8> map;
+  auto akf = makeRoomAkf(map);
+  SyncModel::StateMat p = akf.covariance();
+  p(3, 3) = 1e-6;
+  p(0, 3) = p(3, 0) = 10 * std::sqrt(p(0, 0) * p(3, 3));
+  akf.init(akf.state(), p);
+  LaserConfig<double> laser;
+  const auto x0 = akf.state();
+  EXPECT_EQ(akf.updateBeam(map, geometry(laser), 18, 5.0), Status::kBadCovariance);
+  EXPECT_EQ(akf.counters().bad_covariance, 1u);
+  EXPECT_EQ(akf.counters().beams_used, 0u);
+  EXPECT_EQ(akf.state(), x0);
+  EXPECT_EQ(akf.covariance(), p);
+  p(0, 3) = p(3, 0) = 0.5 * std::sqrt(p(0, 0) * p(3, 3));
+  akf.init(akf.state(), p);
+  EXPECT_EQ(akf.updateBeam(map, geometry(laser), 18, 5.0), Status::kOk);
+  EXPECT_GT(akf.covariance()(3, 3), 0.0);
+  EXPECT_EQ(akf.counters().bad_covariance, 1u);
 }
 
 TEST(AkfHygiene, NoMapHitOutsideTheRoom) {

@@ -753,37 +753,39 @@ class Akf {
       ++counters_.gated;
       return Status::kGated;
     }
-    // Check the covariance update before applying it: diag(P - pht pht^T / s) > 0 (a NaN
-    // fails the comparison and is rejected too).
+    // P -= g g^T with g = P H^T / sqrt(s), upper triangle only; mirrored by the caller, so
+    // P stays symmetric bit for bit. Loops fully unrolled (N is fixed). The new diagonal is
+    // checked before anything is applied: diag(P - g g^T) > 0 (a NaN fails the comparison
+    // and is rejected too); the values checked are the values stored.
+    const S k_nu = nu * inv_s;
+    const S root = std::sqrt(inv_s);
+    S g[N];
+    S diag[N];
 #pragma GCC unroll 16
     for (int j = 0; j < N; ++j) {
-      if (!(p_(j, j) - pht[j] * pht[j] * inv_s > S(0)) && !heldState(j, pht[j])) {
+      g[j] = pht[j] * root;
+      diag[j] = p_(j, j) - g[j] * g[j];
+      if (!(diag[j] > S(0)) && !heldState(j, pht[j])) {
         ++counters_.bad_covariance;
         return Status::kBadCovariance;
       }
     }
-    // P -= g g^T with g = P H^T / sqrt(s), upper triangle only; mirrored by the caller, so
-    // P stays symmetric bit for bit. Loops fully unrolled (N is fixed).
-    const S k_nu = nu * inv_s;
-    const S root = std::sqrt(inv_s);
-    S g[N];
 #pragma GCC unroll 16
-    for (int j = 0; j < N; ++j) {
-      x_[j] += pht[j] * k_nu;
-      g[j] = pht[j] * root;
-    }
+    for (int j = 0; j < N; ++j) x_[j] += pht[j] * k_nu;
     if constexpr (kSparse) {
       for (int b = 0; b < n_act; ++b) {
         const int k = act[b];
-        for (int a = 0; a <= b; ++a) p_(act[a], k) -= g[act[a]] * g[k];
+        for (int a = 0; a < b; ++a) p_(act[a], k) -= g[act[a]] * g[k];
+        p_(k, k) = diag[k];
       }
     } else {
       (void)act;
       (void)n_act;
 #pragma GCC unroll 16
       for (int j = 0; j < N; ++j) {
+        p_(j, j) = diag[j];
 #pragma GCC unroll 16
-        for (int k = j; k < N; ++k) {
+        for (int k = j + 1; k < N; ++k) {
           p_(j, k) -= g[j] * g[k];
         }
       }
