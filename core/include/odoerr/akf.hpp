@@ -11,66 +11,11 @@
 #include <limits>
 #include <type_traits>
 
+#include "odoerr/akf_types.hpp"
 #include "odoerr/map.hpp"
 #include "odoerr/model.hpp"
 
 namespace odoerr {
-
-/// Why a step or a beam was not applied. Every rejection is counted, never silent.
-enum class Status : std::uint8_t {
-  kOk = 0,
-  kBadInput,       ///< a non-finite input
-  kNoReturn,       ///< beam had no valid return (nan, <= 0 or beyond range_max)
-  kNoMapHit,       ///< the predicted beam hits no wall
-  kGrazing,        ///< incidence on the predicted wall beyond the limit
-  kTooClose,       ///< predicted range within kNearRangeSigmas sigma of zero (returns cut off)
-  kGated,          ///< normalised innovation squared above the gate
-  kBadInnovation,  ///< innovation variance not finite or not above the measurement variance
-  kBadCovariance,  ///< the update would make a variance non-positive or non-finite
-};
-
-/// Health counters (monotonic; the firmware publishes them as telemetry).
-struct AkfCounters {
-  std::uint32_t predictions = 0;
-  std::uint32_t bad_inputs = 0;
-  std::uint32_t bad_predictions = 0;
-  std::uint32_t beams_used = 0;
-  std::uint32_t no_return = 0;
-  std::uint32_t no_map_hit = 0;
-  std::uint32_t grazing = 0;
-  std::uint32_t too_close = 0;  ///< beams refused: predicted range too short (kTooClose)
-  std::uint32_t gated = 0;
-  std::uint32_t bad_innovation = 0;
-  std::uint32_t bad_covariance = 0;
-  std::uint32_t pose_fixes_used = 0;      ///< scalar pose-fix components fused
-  std::uint32_t pose_fixes_rejected = 0;  ///< scalar pose-fix components refused
-};
-
-template <typename S>
-struct AkfConfig {
-  /// Beams whose incidence angle on the predicted wall exceeds this are skipped: near
-  /// grazing incidence dr/dtheta grows like tan(incidence) and one beam can wreck the
-  /// heading. 75 degrees by default.
-  S max_incidence_rad = S(75.0 / 180.0) * kPi<S>;
-  /// Gate on the normalised innovation squared (nu^2 / S) of one beam: 25 = 5 sigma.
-  S gate_nis = S(25);
-  /// Fuse a scan's beams in the order of their NIS at the prior mean, most consistent
-  /// first, instead of in beam order. In a linear filter the order does not matter; with a
-  /// wide heading prior (a real robot's odometry, scans every half metre) the first beams
-  /// fused move the state, and in beam order one wrongly associated beam can move it far
-  /// enough that the good beams after it are gated. Costs a second ray cast per beam:
-  /// a host option (odoerr replay --order-beams), off in the firmware. Read by the
-  /// Estimator, which then calls updateScanOrdered instead of updateScan.
-  bool order_by_prior_nis = false;
-};
-
-/// Per-scan summary for statistics.
-template <typename S>
-struct ScanStats {
-  int used = 0;
-  int skipped = 0;
-  S nis_sum = S(0);  ///< sum of nu^2/S over the used beams
-};
 
 template <typename ModelT>
 class Akf {
@@ -134,102 +79,7 @@ class Akf {
   /// them (before P and x change; not on a bad input): KMaxLikelihood carries its
   /// sensitivities through them instead of computing the transition again.
   template <typename PredictObserver>
-  [[nodiscard]] Status predict(const Input& u, const NonSysVec& k, S dt, PredictObserver&& observe) {
-    if (!Model::Drive::inputFinite(u) || !k.allFinite()) {
-      ++counters_.bad_inputs;
-      return Status::kBadInput;
-    }
-    Eigen::Matrix<S, 3, N> f_pose;
-    Eigen::Matrix<S, 3, Model::kNoise> g_pose;
-    S c;
-    S sn;
-    headingCosSin(&c, &sn);
-    if constexpr (Model::kHasEffects) {
-      ctx_.dt = dt;
-      ctx_.x = x_[PoseIdx::kX];
-      ctx_.y = x_[PoseIdx::kY];
-      if constexpr (Model::kUsesHeading) {
-        ctx_.heading = x_[PoseIdx::kTheta];
-        ctx_.cos_heading = c;
-        ctx_.sin_heading = sn;
-      }
-    } else {
-      (void)dt;
-    }
-    Increment<S> inc;
-    Eigen::Matrix<S, 3, 3> d_inc;
-    Increment<S> drive_inc;  // the drive model's increment before the effects (the travel totals)
-    const Pose<S> next = transitionCS(model_, x_, u, ctx_, c, sn, &f_pose, &g_pose, &inc,
-                                        Model::kHasNoiseEffects ? &d_inc : nullptr,
-                                        Model::kHasEffects ? &drive_inc : nullptr);
-    observe(f_pose, g_pose);
-    const typename Model::NoiseVec q = model_.drive.noiseVariance(u, k);
-
-    // P' = F P F^T + G Q G^T, with F = [f_pose; 0 I] and G = [g_pose; 0].
-    // Rows/cols of the parameter block are unchanged except through f_pose.
-    // 3 x N. Lazy (coefficient-wise) products here and below: Eigen's default switches to
-    // its blocked GEMM once rows + cols + depth >= 20, whose workspace may come from the
-    // heap (a float model with N >= 9 then failed the firmware's link-time heap trap); for
-    // smaller N Eigen already chose the lazy product.
-    if constexpr (kSparse) {
-      if (!predictCovarianceSparse(f_pose, g_pose, q, inc, d_inc)) {
-        ++counters_.bad_predictions;
-        return Status::kBadCovariance;
-      }
-    } else {
-      // The new P's pose rows, built beside P and written into it once checked: the
-      // parameter block does not change, so P is not copied (two copies of the whole P
-      // cost more than the rest of the prediction's covariance on the M4F).
-      Eigen::Matrix<S, 3, N> fp = f_pose.lazyProduct(p_);
-      // The pose block F P F^T + G Q G^T, its upper triangle written out and mirrored: as an
-      // Eigen expression GCC called it out of line in the ML image, at 318 instructions a
-      // cycle (measured).
-      Eigen::Matrix<S, 3, 3> pose;
-#pragma GCC unroll 3
-      for (int r = 0; r < 3; ++r) {
-#pragma GCC unroll 3
-        for (int cl = r; cl < 3; ++cl) {
-          S acc = S(0);
-#pragma GCC unroll 16
-          for (int j = 0; j < N; ++j) acc += fp(r, j) * f_pose(cl, j);
-#pragma GCC unroll 4
-          for (int n = 0; n < Model::kNoise; ++n) acc += g_pose(r, n) * q[n] * g_pose(cl, n);
-          pose(r, cl) = acc;
-          pose(cl, r) = acc;
-        }
-      }
-      if constexpr (Model::kHasNoiseEffects) {
-        pose += d_inc * model_.extraVariance(inc, x_, ctx_).asDiagonal() * d_inc.transpose();
-      }
-      // Only the new pose block can be asymmetric by rounding; the rest is copied symmetric.
-      symmetrisePose(pose);
-      fp.template leftCols<3>() = pose;
-      if (!poseRowsHealthy(fp)) {
-        ++counters_.bad_predictions;
-        return Status::kBadCovariance;
-      }
-      p_.template topRows<3>() = fp;
-      p_.template leftCols<3>() = fp.transpose();
-    }
-    x_[PoseIdx::kX] = next.x;
-    x_[PoseIdx::kY] = next.y;
-    x_[PoseIdx::kTheta] = next.theta;
-    if constexpr (Model::kHasEffects) {
-      // the travel totals count the drive model's increment, before the effects (a
-      // backlash span counted in scaled travel lasted 25 % longer than its 5 cm)
-      model_.advanceContext(ctx_, drive_inc, Model::Drive::encoderTravel(u));
-      if (dt > S(0)) {  // a cycle of unknown duration keeps the last velocity
-        const S inv_dt = S(1) / dt;
-        vel_x_ = (next.x - ctx_.x) * inv_dt;
-        vel_y_ = (next.y - ctx_.y) * inv_dt;
-        vel_w_ = inc.theta * inv_dt;
-      }
-    }
-    rotate(&c, &sn, inc.theta);
-    storeHeadingCosSin(c, sn);
-    ++counters_.predictions;
-    return Status::kOk;
-  }
+  [[nodiscard]] Status predict(const Input& u, const NonSysVec& k, S dt, PredictObserver&& observe);
 
   /// Fuses an absolute pose fix (x, y, theta) with standard deviations, as three scalar
   /// updates (H a unit row each; the heading innovation wrapped), gated like a beam.
@@ -284,13 +134,7 @@ class Akf {
   /// G_a = d f_a / d nu (3 x kNoise; the parameter rows are zero).
   static Pose<S> transition(const Model& model, const StateVec& x, const Input& u,
                             Eigen::Matrix<S, 3, N>* f_pose,
-                            Eigen::Matrix<S, 3, Model::kNoise>* g_pose) {
-    S c;
-    S sn;
-    sinCos(x[PoseIdx::kTheta], &sn, &c);
-    Increment<S> inc;
-    return transitionCS(model, x, u, typename Model::Context{}, c, sn, f_pose, g_pose, &inc);
-  }
+                            Eigen::Matrix<S, 3, Model::kNoise>* g_pose);
 
   /// The same in a motion context, with cos/sin of the heading given; also returns the
   /// increment and, optionally, d pose / d increment and the drive model's increment
@@ -298,31 +142,7 @@ class Akf {
   static Pose<S> transitionCS(const Model& model, const StateVec& x, const Input& u,
                               const typename Model::Context& ctx, S c, S sn, Eigen::Matrix<S, 3, N>* f_pose,
                               Eigen::Matrix<S, 3, Model::kNoise>* g_pose, Increment<S>* inc_out,
-                              Eigen::Matrix<S, 3, 3>* d_inc_out = nullptr, Increment<S>* drive_inc = nullptr) {
-    Eigen::Matrix<S, 3, N> d_state;
-    Eigen::Matrix<S, 3, Model::kNoise> d_noise;
-    const typename Model::NoiseVec zero = Model::NoiseVec::Zero();
-    const Increment<S> inc = model.increment(u, x, zero, ctx, &d_state, &d_noise, drive_inc);
-    IncrementJacobians<S> jp;
-    const Pose<S> p{x[PoseIdx::kX], x[PoseIdx::kY], x[PoseIdx::kTheta]};
-    // cos/sin of the mid-point heading theta + dtheta/2 by a small rotation.
-    S cm = c;
-    S sm = sn;
-    rotate(&cm, &sm, S(0.5) * inc.theta);
-    const Pose<S> next = applyIncrementCS(p, inc, cm, sm, &jp);
-    // d_state has zero pose columns: multiply the parameter block only.
-    f_pose->template leftCols<3>().setZero();
-    f_pose->template rightCols<N - 3>() = jp.d_inc * d_state.template rightCols<N - 3>();
-    (*f_pose)(0, PoseIdx::kX) += S(1);
-    (*f_pose)(1, PoseIdx::kY) += S(1);
-    (*f_pose)(2, PoseIdx::kTheta) += S(1);
-    (*f_pose)(0, PoseIdx::kTheta) += jp.dx_dth;
-    (*f_pose)(1, PoseIdx::kTheta) += jp.dy_dth;
-    *g_pose = jp.d_inc * d_noise;
-    *inc_out = inc;
-    if (d_inc_out != nullptr) *d_inc_out = jp.d_inc;
-    return next;
-  }
+                              Eigen::Matrix<S, 3, 3>* d_inc_out = nullptr, Increment<S>* drive_inc = nullptr);
 
   /// Fuses one scan (ranges in beam order, nan = no return) against the map, one scalar
   /// beam at a time. The heading's (cos, sin) is carried through the sequential updates
@@ -446,48 +266,13 @@ class Akf {
   static Status expectedRange(const MapT& map,
                               const LaserGeometry<S, MaxBeams>& laser, S x, S y, S c, S sn,
                               int i, S min_cos_incidence, S* range, Eigen::Matrix<S, 1, 3>* h,
-                              BeamContext<S>* geo = nullptr, const RayShift<S>* shift = nullptr) {
-    const LaserConfig<S>& cfg = laser.config();
-    S lx = x + c * cfg.mount_x - sn * cfg.mount_y;
-    S ly = y + sn * cfg.mount_x + c * cfg.mount_y;
-    S ux = c * laser.dirC(i) - sn * laser.dirS(i);
-    S uy = sn * laser.dirC(i) + c * laser.dirS(i);
-    if (shift != nullptr) {
-      lx += shift->dlx;
-      ly += shift->dly;
-      rotate(&ux, &uy, shift->da);
-    }
-    const RayHit<S> hit = map.castDir(lx, ly, ux, uy, S(1e-6), cfg.range_max);
-    if (!hit.hit) return Status::kNoMapHit;
-    if (std::abs(hit.n_dot_u) < min_cos_incidence) return Status::kGrazing;
-    if (hit.range < kNearRangeSigmas<S> * cfg.sigma) return Status::kTooClose;
-    *range = hit.range;
-    if (h != nullptr) {
-      // r = (n.(a - pL)) / (n.u):  dr/dpL = -n/(n.u),  dr/dalpha = -r (n.u')/(n.u)
-      const S inv = S(1) / hit.n_dot_u;
-      const S drdx = -hit.nx * inv;
-      const S drdy = -hit.ny * inv;
-      const S n_dot_du = -hit.nx * uy + hit.ny * ux;
-      const S drda = -hit.range * n_dot_du * inv;
-      const S dlx = -sn * cfg.mount_x - c * cfg.mount_y;
-      const S dly = c * cfg.mount_x - sn * cfg.mount_y;
-      (*h) << drdx, drdy, drdx * dlx + drdy * dly + drda;
-      if (geo != nullptr) {
-        *geo = BeamContext<S>{hit.range, drdx, drdy, (*h)(2), drda, c, sn, hit.n_dot_u, hit.wall,
-                              S(0), S(0), S(0), cfg.angle_min + S(i) * cfg.angle_inc};
-      }
-    }
-    return Status::kOk;
-  }
+                              BeamContext<S>* geo = nullptr, const RayShift<S>* shift = nullptr);
 
   /// Convenience form of expectedRange taking a pose and an incidence limit in radians.
   template <typename MapT, int MaxBeams>
   static Status expectedRange(const MapT& map,
                               const LaserGeometry<S, MaxBeams>& laser, const Pose<S>& p, int i,
-                              S max_incidence, S* range, Eigen::Matrix<S, 1, 3>* h) {
-    return expectedRange(map, laser, p.x, p.y, std::cos(p.theta), std::sin(p.theta), i,
-                         std::cos(max_incidence), range, h);
-  }
+                              S max_incidence, S* range, Eigen::Matrix<S, 1, 3>* h);
 
   /// Predicts every beam of a scan at the current state without fusing it (held-out
   /// evaluation): reports each beam's record to `observe` as updateScan would.
@@ -680,122 +465,7 @@ class Akf {
   template <bool kReport, typename MapT, int MaxBeams>
   Status updateBeamCS(const MapT& map, const LaserGeometry<S, MaxBeams>& laser,
                       int i, S measured, S c, S sn, S* nis_out, S* dtheta_out, S* predicted_out,
-                      S* variance_out) {
-    const LaserConfig<S>& cfg = laser.config();
-    if (!isFinite(measured) || !(measured > S(0)) || measured > cfg.range_max) {
-      ++counters_.no_return;
-      return Status::kNoReturn;
-    }
-    S hf[kHCols];
-    S predicted = S(0);
-    const Status ps = predictBeam(map, laser, i, c, sn, &predicted, hf);
-    if (ps != Status::kOk) {
-      if (ps == Status::kNoMapHit) ++counters_.no_map_hit;
-      if (ps == Status::kGrazing) ++counters_.grazing;
-      if (ps == Status::kTooClose) ++counters_.too_close;
-      return ps;
-    }
-
-    const S r = cfg.sigma * cfg.sigma;
-    // Within a scan only the upper triangle of P is kept current (the caller mirrors it
-    // once at the end): up(j, k) reads the upper element. After unrolling the choice of
-    // element is made at compile time.
-    auto up = [this](int j, int k) -> S { return j <= k ? p_(j, k) : p_(k, j); };
-    // P H^T: only the first kHCols columns of H can be non-zero (the pose, or every state
-    // when measurement effects are composed in).
-    S pht[N];
-    S s = S(0);
-    // kSparse (large host models): the states with variance, and the columns of H that are
-    // non-zero among them; every product skipped is an exact zero (see kSparse).
-    int act[kSparse ? N : 1];
-    int n_act = 0;
-    if constexpr (kSparse) {
-      n_act = statesWithVariance(act);
-      int hcol[N];
-      int n_h = 0;
-      for (int j = 0; j < N; ++j) pht[j] = S(0);
-      for (int a = 0; a < n_act; ++a) {
-        if (act[a] < kHCols && hf[act[a]] != S(0)) hcol[n_h++] = act[a];
-      }
-      for (int a = 0; a < n_act; ++a) {
-        const int j = act[a];
-        S acc = S(0);
-        for (int b = 0; b < n_h; ++b) acc += up(j, hcol[b]) * hf[hcol[b]];
-        pht[j] = acc;
-      }
-      for (int b = 0; b < n_h; ++b) s += hf[hcol[b]] * pht[hcol[b]];
-    } else {
-#pragma GCC unroll 16
-      for (int j = 0; j < N; ++j) {
-        S acc = up(j, 0) * hf[0] + up(j, 1) * hf[1] + up(j, 2) * hf[2];
-        for (int k = 3; k < kHCols; ++k) acc += up(j, k) * hf[k];
-        pht[j] = acc;
-      }
-      s = hf[0] * pht[0] + hf[1] * pht[1] + hf[2] * pht[2];
-      for (int k = 3; k < kHCols; ++k) s += hf[k] * pht[k];
-    }
-    s += r;
-    if constexpr (kReport) {
-      *predicted_out = predicted;
-      *variance_out = s;
-    } else {
-      (void)predicted_out;
-      (void)variance_out;
-    }
-    if (!isFinite(s) || !(s > r)) {
-      ++counters_.bad_innovation;
-      return Status::kBadInnovation;
-    }
-    const S nu = measured - predicted;
-    const S inv_s = S(1) / s;
-    const S nis = nu * nu * inv_s;
-    if (!(nis <= cfg_.gate_nis)) {
-      ++counters_.gated;
-      return Status::kGated;
-    }
-    // P -= g g^T with g = P H^T / sqrt(s), upper triangle only; mirrored by the caller, so
-    // P stays symmetric bit for bit. Loops fully unrolled (N is fixed). The new diagonal is
-    // checked before anything is applied: diag(P - g g^T) > 0 (a NaN fails the comparison
-    // and is rejected too); the values checked are the values stored.
-    const S k_nu = nu * inv_s;
-    const S root = std::sqrt(inv_s);
-    S g[N];
-    S diag[N];
-#pragma GCC unroll 16
-    for (int j = 0; j < N; ++j) {
-      g[j] = pht[j] * root;
-      diag[j] = p_(j, j) - g[j] * g[j];
-      if (!(diag[j] > S(0)) && !heldState(j, pht[j])) {
-        ++counters_.bad_covariance;
-        return Status::kBadCovariance;
-      }
-    }
-#pragma GCC unroll 16
-    for (int j = 0; j < N; ++j) x_[j] += pht[j] * k_nu;
-    if constexpr (kSparse) {
-      for (int b = 0; b < n_act; ++b) {
-        const int k = act[b];
-        for (int a = 0; a < b; ++a) p_(act[a], k) -= g[act[a]] * g[k];
-        p_(k, k) = diag[k];
-      }
-    } else {
-      (void)act;
-      (void)n_act;
-#pragma GCC unroll 16
-      for (int j = 0; j < N; ++j) {
-        p_(j, j) = diag[j];
-#pragma GCC unroll 16
-        for (int k = j + 1; k < N; ++k) {
-          p_(j, k) -= g[j] * g[k];
-        }
-      }
-    }
-    x_[PoseIdx::kTheta] = wrapAngle(x_[PoseIdx::kTheta]);
-    *dtheta_out = pht[PoseIdx::kTheta] * k_nu;
-    ++counters_.beams_used;
-    if (nis_out != nullptr) *nis_out = nis;
-    return Status::kOk;
-  }
+                      S* variance_out);
 
   /// kSparse: the indices of the states with variance (the others are held: zero rows and
   /// columns of P), in increasing order; returns how many.
@@ -898,3 +568,9 @@ class Akf {
 };
 
 }  // namespace odoerr
+
+// The members defined out of the class, one responsibility a header.
+#include "odoerr/akf_predict.hpp"     // NOLINT(build/include_order): Akf::predict
+#include "odoerr/akf_transition.hpp"  // NOLINT(build/include_order): Akf::transition, transitionCS
+#include "odoerr/akf_ray.hpp"         // NOLINT(build/include_order): Akf::expectedRange
+#include "odoerr/akf_beam_update.hpp" // NOLINT(build/include_order): Akf::updateBeamCS
