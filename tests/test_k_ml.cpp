@@ -303,7 +303,7 @@ TEST(KMl, ScaleShiftedScoreIsExactForEqualShares) {
 }
 
 // From 100x above, 20 runs of 1 m on the sync drive: the line (scale_shift off) turns the
-// saturated score into a push upwards, so K has come down far less (printed; 300 runs:
+// saturated score into a push upwards, so K has come down far less (printed; 100 runs:
 // 38x against 8x the truth at 1 m, docs/nonsystematic.md).
 TEST(KMl, ScaleShiftDescendsFromAboveSync) {
   const KMlConfig<double> def;
