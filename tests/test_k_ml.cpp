@@ -494,7 +494,7 @@ TEST_F(KMlScan, BlindStretchForgetsNothing) {
     predict(&ml, est.akf().model(), x, u);
     const Eigen::Matrix<double, N, 3> p3 = p.leftCols<3>();
     ASSERT_TRUE((ml.scan<3, 3>(p3, x.head<3>(), p_post, x)));
-    (void)ml.endCycle(KMaxLikelihood<Model>::StateVec::Zero(), KMaxLikelihood<Model>::StateMat::Zero());
+    (void)ml.endCycle(x, p);
   }
   const auto steps = ml.counters().steps;
   ASSERT_GT(steps, 0u);
@@ -504,7 +504,7 @@ TEST_F(KMlScan, BlindStretchForgetsNothing) {
   ASSERT_GT(kf[0], k[0]) << "the test needs the inflation active";
   for (int cycle = 0; cycle < 50; ++cycle) {
     predict(&ml, est.akf().model(), x, u);
-    EXPECT_FALSE(ml.endCycle(KMaxLikelihood<Model>::StateVec::Zero(), KMaxLikelihood<Model>::StateMat::Zero()));
+    EXPECT_FALSE(ml.endCycle(x, p));
   }
   EXPECT_EQ(ml.counters().idle, 50u);
   EXPECT_EQ(ml.counters().steps, steps);
@@ -515,6 +515,37 @@ TEST_F(KMlScan, BlindStretchForgetsNothing) {
   predict(&ml, est.akf().model(), x, u);
   const Eigen::Matrix<double, N, 3> p3 = p.leftCols<3>();
   ASSERT_TRUE((ml.scan<3, 3>(p3, x.head<3>(), p_post, x)));
-  EXPECT_TRUE(ml.endCycle(KMaxLikelihood<Model>::StateVec::Zero(), KMaxLikelihood<Model>::StateMat::Zero()));
+  EXPECT_TRUE(ml.endCycle(x, p));
   EXPECT_EQ(ml.counters().steps, steps + 1);
+}
+
+// A restart (log K moved by more than reset_log since the last) scales J by reset_keep: the
+// same scan and step with reset_keep 0.3 and 1 leave covariances 1/0.3 apart; with 0 there is
+// no information left (covariance() reports 100 %).
+TEST_F(KMlScan, RestartKeepsItsShareOfTheInformation) {
+  auto run = [&](double keep) {
+    KMlConfig<double> c;
+    c.every = 1;
+    c.inflate = 0;
+    c.reset_log = 1e-9;  // any step restarts
+    c.reset_keep = keep;
+    Ml ml(c);
+    ml.init(sim.trueNonSys());
+    const Ml::StateVec x = est.akf().state();
+    const Ml::StateMat p = est.akf().covariance();
+    Ml::StateMat p_post = p;
+    p_post.topLeftCorner<3, 3>() *= 0.5;
+    predict(&ml, est.akf().model(), x, Model::Input{0.01, 0.011});
+    const Eigen::Matrix<double, N, 3> p3 = p.leftCols<3>();
+    EXPECT_TRUE((ml.scan<3, 3>(p3, x.head<3>(), p_post, x)));
+    EXPECT_TRUE(ml.endCycle(x, p));
+    EXPECT_EQ(ml.counters().resets, 1u);
+    return std::make_pair(ml.covariance()(0, 0), ml.estimate()[0]);
+  };
+  const auto [c1, k1] = run(1.0);
+  const auto [c3, k3] = run(0.3);
+  const auto [c0, k0] = run(0.0);
+  EXPECT_EQ(k3, k1) << "the step itself does not depend on reset_keep";
+  EXPECT_NEAR(c3 / c1, 1 / 0.3, 1e-9);
+  EXPECT_DOUBLE_EQ(c0, k0 * k0);
 }

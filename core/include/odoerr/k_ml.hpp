@@ -21,7 +21,8 @@
 // by more than reset_log since their last restart (stale information), and while K is
 // uncertain the AKF runs with an inflated K_f = K exp(inflate sigma_logK - offset) (capped),
 // so that it never over-trusts the odometry while K is too small; the step for K then
-// corrects the score at K_f by the information times (log K_f - log K).
+// carries the score from K_f down to K (the smaller of the Gauss-Newton line, information
+// times (log K_f - log K), and a variance-scale model: KMlConfig::scale_shift).
 // Fixed-size, allocation-free, Eigen only.
 #pragma once
 

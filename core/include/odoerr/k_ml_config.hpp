@@ -39,8 +39,8 @@ struct KMlConfig {
   /// Decoupling the AKF's Q from the estimate while K is uncertain: the AKF runs with
   /// K_f = K exp(min(inflate sigma_logK - inflate_offset, max_inflate_log)) when that exponent
   /// is positive, else K (inflate 0: off); sigma_logK from J (max_inflate_log while J is not
-  /// positive definite). The score then comes at K_f; the step is taken for K with the
-  /// Gauss-Newton correction g(K) = g(K_f) + I (log K_f - log K).
+  /// positive definite). The score then comes at K_f, and the step for K carries it down to
+  /// K (scale_shift).
   S inflate = S(2);
   /// log 30: 100 (the paper's starting factor) let one run of 400 lose the pose from above
   /// on the figure-eight (Q 10^4 times too large at the start); 30 loses none (measured).
