@@ -105,12 +105,7 @@ class KMaxLikelihood {
   KMat covarianceWithSystematic(const StateVec& x, const StateMat& p) const {
     KMat c = covariance();
     if constexpr (std::is_same_v<Drive, DiffDrive<S>>) {
-      constexpr int kD = Model::kDriveOffset + Drive::kDeltaD;
-      const S dd = x[kD];
-      if (dd > S(0) && p(kD, kD) >= S(0)) {
-        const S var_log = S(4) * p(kD, kD) / (dd * dd);
-        c(Drive::kKw, Drive::kKw) += k_[Drive::kKw] * k_[Drive::kKw] * var_log;
-      }
+      c(Drive::kKw, Drive::kKw) += k_[Drive::kKw] * k_[Drive::kKw] * deltaDVarLogKw(x, p);
     }
     return c;
   }
@@ -461,12 +456,7 @@ class KMaxLikelihood {
       return false;
     }
     taken_ = 0;
-    if constexpr (std::is_same_v<Drive, DiffDrive<S>>) {
-      if (cfg_.deflate) deflateBySystematic(x, p);
-    } else {
-      (void)x;
-      (void)p;
-    }
+    if (cfg_.deflate) deflateBySystematic(x, p);
     const KMat dk = kf_.asDiagonal();
     const KMat info_t = dk * info_ * dk;
     KVec g_t = dk * g_;
@@ -541,18 +531,30 @@ class KMaxLikelihood {
     }
   }
 
-  /// KMlConfig::deflate (differential drive): this step's score and information on K_w
-  /// scaled by 1 / (1 + I v), v = 4 P_dd / delta_d^2 (x, p: the AKF's state and covariance).
-  void deflateBySystematic(const StateVec& x, const StateMat& p) {
+  /// The variance delta_d's uncertainty adds to log K_w (differential drive): the heading
+  /// noise fixes K_w / delta_d^2, so var(log K_w) gains var(log delta_d^2) = 4 P_dd / delta_d^2
+  /// (x, p: the AKF's state and covariance; 0 where delta_d or P_dd is not usable).
+  static S deltaDVarLogKw(const StateVec& x, const StateMat& p) {
     constexpr int kD = Model::kDriveOffset + Drive::kDeltaD;
     const S dd = x[kD];
-    if (!(dd > S(0)) || !(p(kD, kD) >= S(0))) return;
-    const S v = S(4) * p(kD, kD) / (dd * dd);
-    const S kw = kf_[Drive::kKw];
-    const S f = S(1) / (S(1) + kw * kw * info_(Drive::kKw, Drive::kKw) * v);
-    info_ *= f;
-    g_ *= f;
-    h_ *= f;
+    if (!(dd > S(0)) || !(p(kD, kD) >= S(0))) return S(0);
+    return S(4) * p(kD, kD) / (dd * dd);
+  }
+
+  /// KMlConfig::deflate: on the differential drive, this step's score and information on
+  /// K_w scaled by 1 / (1 + I v), v = deltaDVarLogKw; nothing on the synchronous drive, whose
+  /// Q does not depend on its parameters.
+  void deflateBySystematic(const StateVec& x, const StateMat& p) {
+    if constexpr (std::is_same_v<Drive, DiffDrive<S>>) {
+      const S kw = kf_[Drive::kKw];
+      const S f = S(1) / (S(1) + kw * kw * info_(Drive::kKw, Drive::kKw) * deltaDVarLogKw(x, p));
+      info_ *= f;
+      g_ *= f;
+      h_ *= f;
+    } else {
+      (void)x;
+      (void)p;
+    }
   }
 
   /// J^-1 from its factor (info() checked by the caller), one column at a time: a solve with
