@@ -212,7 +212,8 @@ std::string summaryJson(const PaperResult& r) {
                {"discount_above", r.ml.discount_above},
                {"reset_keep", r.ml.reset_keep},
                {"shift", r.ml.scale_shift ? "scale" : "line"},
-               {"deflate", r.ml.deflate}};
+               {"deflate", r.ml.deflate},
+               {"heading_scale", r.ml.heading_scale}};
   }
   j["path"] = r.figure_eight ? "eight" : "circle";
   j["radius_m"] = r.radius_m;

@@ -49,6 +49,18 @@ class KMaxLikelihood {
   static constexpr int M = Drive::kNonSys;
   using KVec = Eigen::Matrix<S, M, 1>;
   using KMat = Eigen::Matrix<S, M, M>;
+  /// The differential drive's Q has a second parameter the recursion estimates beside K_w
+  /// (KMlConfig::heading_scale): the heading noise is K_w (|dR| + |dL|) / (d delta_d)^2, so
+  /// the innovations fix K_w and K_w / delta_d^2 apart (the translation noise and the heading
+  /// noise), and a delta_d the AKF has not learnt (a circle) must not bias K_w. Index kC holds
+  /// c = 1 / delta_d^2 as the noise sees it, in the same log parametrisation as K; the AKF
+  /// keeps predicting with its own delta_d (c_f = 1 / delta_d^2 from its state), and c's prior
+  /// is the AKF's own knowledge of delta_d (log c ~ N(log c_f, 4 P_dd / delta_d^2)).
+  static constexpr bool kHeadingScale = std::is_same_v<Drive, DiffDrive<S>>;
+  static constexpr int P = M + (kHeadingScale ? 1 : 0);  ///< the parameters of Q estimated
+  static constexpr int kC = M;                            ///< c's index (kHeadingScale)
+  using PVec = Eigen::Matrix<S, P, 1>;
+  using PMat = Eigen::Matrix<S, P, P>;
   using StateVec = Eigen::Matrix<S, N, 1>;
   using StateMat = Eigen::Matrix<S, N, N>;
 
@@ -58,9 +70,10 @@ class KMaxLikelihood {
   }
 
   void init(const KVec& k0) {
-    k_ = k0;
-    kf_ = k0;
-    for (int i = 0; i < M; ++i) {
+    k_.setZero();
+    k_.template head<M>() = k0;  // c (kC) is set from the AKF's delta_d at the first step
+    kf_ = k_;
+    for (int i = 0; i < P; ++i) {
       dp_[i].setZero();
       xi_[i].setZero();
     }
@@ -68,7 +81,9 @@ class KMaxLikelihood {
     h_.setZero();
     info_.setZero();
     j_.setZero();
-    k_ref_ = k0;
+    prior_info_ = S(0);
+    prior_mean_ = S(0);
+    k_ref_ = k_;
     lambda_ = cfg_.lambda0;
     cycles_ = 0;
     taken_ = 0;
@@ -77,42 +92,56 @@ class KMaxLikelihood {
     kf_min_ = kf_;
   }
 
-  const KVec& estimate() const { return k_; }
+  KVec estimate() const { return k_.template head<M>(); }
   /// The K the AKF should predict with (K itself unless inflate > 0); the sensitivities and
   /// the score are with respect to it. Updated at each step.
-  const KVec& filterK() const { return kf_; }
+  KVec filterK() const { return kf_.template head<M>(); }
+  bool headingScaleOn() const { return kHeadingScale && cfg_.heading_scale; }
+  /// delta_d as the noise sees it (kHeadingScale, once estimated: 1 / sqrt(c)); else 0.
+  S noiseDeltaD() const {
+    if constexpr (kHeadingScale) {
+      return headingScaleOn() && k_[kC] > S(0) ? S(1) / std::sqrt(k_[kC]) : S(0);
+    } else {
+      return S(0);
+    }
+  }
   /// The factor by which the AKF's knowledge of the systematic parameters was overstated, as
   /// seen at the last step: the largest K / (the smallest K_f the AKF has predicted with
   /// since the last such discount) over the components when above
   /// KMlConfig::discount_above, else 1 (MlDriver discounts the AKF's parameters by it).
   S overstatement() const { return overstated_; }
   /// Covariance of K from the accumulated information (J^-1 in log K, mapped to K).
+  /// With c estimated (kHeadingScale), J with c's prior, marginalised over c: it then holds
+  /// delta_d's share of K_w's uncertainty.
   KMat covariance() const {
     KMat c = KMat::Zero();
-    Eigen::LLT<KMat> llt(j_);
+    Eigen::LLT<PMat> llt(withPrior());
     if (llt.info() != Eigen::Success) {
       for (int i = 0; i < M; ++i) c(i, i) = k_[i] * k_[i];  // no information: 100 %
       return c;
     }
-    const KMat ci = inverseOf(llt);
-    return k_.asDiagonal() * ci * k_.asDiagonal();
+    const PMat ci = inverseOf(llt);
+    const KVec k = k_.template head<M>();
+    return k.asDiagonal() * ci.template topLeftCorner<M, M>() * k.asDiagonal();
   }
   /// covariance() with the systematic parameters' uncertainty carried over where Q depends
-  /// on them. On the differential drive the heading noise is K_w (|dR| + |dL|) / (d delta_d)^2,
-  /// so the innovations fix K_w / delta_d^2, and J (at the estimated delta_d) misses the
-  /// share of delta_d: var(log K_w) gains 4 P_dd / delta_d^2 (x, p: the AKF's state and
-  /// covariance). The synchronous drive's Q does not depend on its parameters: covariance().
+  /// on them. On the differential drive the heading noise is K_w (|dR| + |dL|) / (d delta_d)^2:
+  /// with c estimated, covariance() holds delta_d's share already; without it
+  /// (heading_scale off) the innovations fix K_w / delta_d^2, and J (at the estimated
+  /// delta_d) misses that share: var(log K_w) gains 4 P_dd / delta_d^2 (x, p: the AKF's state
+  /// and covariance). The synchronous drive's Q does not depend on its parameters.
   KMat covarianceWithSystematic(const StateVec& x, const StateMat& p) const {
     KMat c = covariance();
-    if constexpr (std::is_same_v<Drive, DiffDrive<S>>) {
-      c(Drive::kKw, Drive::kKw) += k_[Drive::kKw] * k_[Drive::kKw] * deltaDVarLogKw(x, p);
+    if constexpr (kHeadingScale) {
+      if (!headingScaleOn()) c(Drive::kKw, Drive::kKw) += k_[Drive::kKw] * k_[Drive::kKw] * deltaDVarLogKw(x, p);
     }
     return c;
   }
   const KMlCounters& counters() const { return counters_; }
   const KMlConfig<S>& config() const { return cfg_; }
-  const KVec& blockScore() const { return g_; }
-  const KMat& blockInformation() const { return info_; }
+  /// This block's score and information (K, then c: P entries).
+  const PVec& blockScore() const { return g_; }
+  const PMat& blockInformation() const { return info_; }
 
   /// Before the AKF's prediction, with its Jacobians (Akf::predict's observer hands them
   /// out; Akf::transition computes them): dP_i <- F dP_i F^T + G dQ/dK_i G^T, xi_i <- F xi_i, with F = [f_pose; 0 I] and
@@ -123,10 +152,18 @@ class KMaxLikelihood {
   ODOERR_NOINLINE void predict(const Model& model, const Input& u, const Eigen::Matrix<S, 3, N>& f_pose,
                                const Eigen::Matrix<S, 3, Model::kNoise>& g_pose) {
     static_assert(Ns >= 3 && Ns <= N, "the sensitivities start with the pose");
-    for (int i = 0; i < M; ++i) {
+    const int np = active();
+    for (int i = 0; i < np; ++i) {
+      // Q is linear in K: dQ/dK_i is Q at the unit vector. c scales the heading rows of
+      // G Q G^T by c / c_f (the covariances by its square root): d/dlog c at c_f is Q at K_f's
+      // heading row and column, the covariances halved (below).
       KVec e = KVec::Zero();
-      e[i] = S(1);
-      const auto dq = model.drive.noiseVariance(u, e);  // Q is linear in K
+      if (i < M) {
+        e[i] = S(1);
+      } else {
+        e = kf_.template head<M>();
+      }
+      const auto dq = model.drive.noiseVariance(u, e);
       StateMat& dp = dp_[i];
       // F_pose's pose columns are I plus the heading column (a, b, 0) (Akf::transitionCS
       // builds them so): fp = F_pose dP (3 x Ns) takes the rows of dP with a and b and the
@@ -168,8 +205,13 @@ class KMaxLikelihood {
           if (k == 1) acc += fb * fp[r][2];
 #pragma GCC unroll 16
           for (int l = 3; l < Ns; ++l) acc += fp[r][l] * f_pose(k, l);
+          S nq = S(0);
 #pragma GCC unroll 16
-          for (int l = 0; l < Model::kNoise; ++l) acc += g_pose(r, l) * dq[l] * g_pose(k, l);
+          for (int l = 0; l < Model::kNoise; ++l) nq += g_pose(r, l) * dq[l] * g_pose(k, l);
+          if constexpr (kHeadingScale) {
+            if (i == kC) nq *= k == 2 ? (r == 2 ? S(1) : S(0.5)) : S(0);
+          }
+          acc += nq;
           dp(r, k) = acc;
           dp(k, r) = acc;
         }
@@ -190,21 +232,22 @@ class KMaxLikelihood {
   void beam(const StateVec& h, const StateMat& p_prior, S nu, S s) {
     const StateVec ph = p_prior * h;
     const StateVec k = ph / s;
-    S ds[M];
-    S a[M];
-    StateVec dph[M];
-    for (int i = 0; i < M; ++i) {
+    const int np = active();
+    S ds[P];
+    S a[P];
+    StateVec dph[P];
+    for (int i = 0; i < np; ++i) {
       dph[i] = dp_[i] * h;
       ds[i] = h.dot(dph[i]);
       a[i] = h.dot(xi_[i]);
     }
     const S nis = nu * nu / s;
-    for (int i = 0; i < M; ++i) {
+    for (int i = 0; i < np; ++i) {
       g_[i] += S(-0.5) * ds[i] / s * (S(1) - nis) + nu * a[i] / s;
       h_[i] += S(0.5) * ds[i] / s;
-      for (int j = 0; j < M; ++j) info_(i, j) += S(0.5) * ds[i] * ds[j] / (s * s) + a[i] * a[j] / s;
+      for (int j = 0; j < np; ++j) info_(i, j) += S(0.5) * ds[i] * ds[j] / (s * s) + a[i] * a[j] / s;
     }
-    for (int i = 0; i < M; ++i) {
+    for (int i = 0; i < np; ++i) {
       const StateVec dk = (dph[i] - k * ds[i]) / s;
       xi_[i] += -k * a[i] + dk * nu;
       // (I - k h^T) dP (I - k h^T)^T = dP - k dph^T - dph k^T + k ds k^T
@@ -237,204 +280,7 @@ class KMaxLikelihood {
   /// keeps just those (`p_prior`, `x_prior` here).
   template <int Hc = N, int Ns = N>
   ODOERR_NOINLINE bool scan(const Eigen::Matrix<S, N, Hc>& p_prior, const Eigen::Matrix<S, Hc, 1>& x_prior,
-                            const StateMat& p_post, const StateVec& x_post) {
-    static_assert(Hc >= 3 && Hc <= N, "the measured states start with the pose");
-    static_assert(Ns >= Hc && Ns <= N, "the sensitivities cover the measured states");
-    using HMat = Eigen::Matrix<S, Hc, Hc>;
-    using HVec = Eigen::Matrix<S, Hc, 1>;
-    using NxH = Eigen::Matrix<S, Ns, Hc>;
-    // B = P_hh^-1. The loops below are written out on fixed sizes: the same arithmetic
-    // through Eigen's expressions cost about twice as much on the M4F (measured,
-    // docs/nonsystematic.md).
-    HMat b;
-    bool ok = false;
-    if constexpr (Hc == 3) {
-      // The pose block (m^2 and rad^2, of like size): positive definite iff its leading
-      // minors are (Sylvester), which also refuses a NaN; then the inverse by cofactors.
-      // Written out: Eigen's LU module, included here, changed how GCC laid out the paper's
-      // cycle in the firmware (+540 instructions, measured).
-      const auto& pt = p_prior;
-      const S c00 = pt(1, 1) * pt(2, 2) - pt(1, 2) * pt(1, 2);
-      const S c01 = pt(0, 2) * pt(1, 2) - pt(0, 1) * pt(2, 2);
-      const S c02 = pt(0, 1) * pt(1, 2) - pt(0, 2) * pt(1, 1);
-      const S det = pt(0, 0) * c00 + pt(0, 1) * c01 + pt(0, 2) * c02;
-      const S m2 = pt(0, 0) * pt(1, 1) - pt(0, 1) * pt(0, 1);
-      ok = pt(0, 0) > S(0) && m2 > S(0) && det > S(0);
-      if (ok) {
-        const S inv = S(1) / det;
-        b(0, 0) = c00 * inv;
-        b(0, 1) = b(1, 0) = c01 * inv;
-        b(0, 2) = b(2, 0) = c02 * inv;
-        b(1, 1) = (pt(0, 0) * pt(2, 2) - pt(0, 2) * pt(0, 2)) * inv;
-        b(1, 2) = b(2, 1) = (pt(0, 1) * pt(0, 2) - pt(0, 0) * pt(1, 2)) * inv;
-        b(2, 2) = m2 * inv;
-      }
-    } else {
-      // Every state: in correlation form (scaled by the diagonal; a state without variance,
-      // held, is left out), because the parameters' variances span many decades.
-      S d[Hc];
-      HMat pt;
-      for (int j = 0; j < Hc; ++j) d[j] = p_prior(j, j) > S(0) ? S(1) / std::sqrt(p_prior(j, j)) : S(0);
-      for (int j = 0; j < Hc; ++j) {
-        for (int k = 0; k < Hc; ++k) pt(j, k) = d[j] * p_prior(j, k) * d[k];
-        if (d[j] == S(0)) pt(j, j) = S(1);
-      }
-      Eigen::LLT<HMat> llt(pt);
-      ok = llt.info() == Eigen::Success;
-      if (ok) {
-        for (int j = 0; j < Hc; ++j) b.col(j) = llt.solve(HVec::Unit(j));
-        for (int j = 0; j < Hc; ++j) {
-          for (int k = 0; k < Hc; ++k) b(j, k) *= d[j] * d[k];
-        }
-        ok = b.allFinite();
-      }
-    }
-    if (!ok) {
-      ++counters_.scans_skipped;
-      for (int i = 0; i < M; ++i) {
-        dp_[i].setZero();
-        xi_[i].setZero();
-      }
-      return false;
-    }
-    // C = B (P_prior - P_post)_hh B (symmetric: the upper triangle, mirrored), v = B dx.
-    HMat bd;  // B (P_prior - P_post)_hh
-#pragma GCC unroll 16
-    for (int j = 0; j < Hc; ++j) {
-#pragma GCC unroll 16
-      for (int k = 0; k < Hc; ++k) {
-        S acc = S(0);
-#pragma GCC unroll 16
-        for (int l = 0; l < Hc; ++l) acc += b(j, l) * (p_prior(l, k) - p_post(l, k));
-        bd(j, k) = acc;
-      }
-    }
-    HMat c;
-#pragma GCC unroll 16
-    for (int j = 0; j < Hc; ++j) {
-#pragma GCC unroll 16
-      for (int k = j; k < Hc; ++k) {
-        S acc = S(0);
-#pragma GCC unroll 16
-        for (int l = 0; l < Hc; ++l) acc += bd(j, l) * b(l, k);
-        c(j, k) = acc;
-        c(k, j) = acc;
-      }
-    }
-    S dx[Hc];
-#pragma GCC unroll 16
-    for (int j = 0; j < Hc; ++j) dx[j] = x_post[j] - x_prior[j];
-    dx[PoseIdx::kTheta] = wrapAngle(dx[PoseIdx::kTheta]);
-    HVec v;
-#pragma GCC unroll 16
-    for (int j = 0; j < Hc; ++j) {
-      S acc = S(0);
-#pragma GCC unroll 16
-      for (int l = 0; l < Hc; ++l) acc += b(j, l) * dx[l];
-      v[j] = acc;
-    }
-    // U = P_:h C (the rows of the carried states). With the measured states' only
-    // (Ns = Hc), U = P_hh B (P_prior - P_post)_hh B = (P_prior - P_post)_hh B = (B (...))^T.
-    NxH u;
-    if constexpr (Ns == Hc) {
-      u = bd.transpose();
-    } else {
-#pragma GCC unroll 16
-      for (int j = 0; j < Ns; ++j) {
-#pragma GCC unroll 16
-        for (int k = 0; k < Hc; ++k) {
-          S acc = S(0);
-#pragma GCC unroll 16
-          for (int l = 0; l < Hc; ++l) acc += p_prior(j, l) * c(l, k);
-          u(j, k) = acc;
-        }
-      }
-    }
-    HMat e[M];   // C dP_i,hh
-    HVec cx[M];  // C xi_i,h
-    for (int i = 0; i < M; ++i) {
-      const StateMat& dp = dp_[i];
-      S tr = S(0);
-      S vdv = S(0);
-      S vx = S(0);
-#pragma GCC unroll 16
-      for (int j = 0; j < Hc; ++j) {
-        S acc_x = S(0);
-        S acc_v = S(0);
-#pragma GCC unroll 16
-        for (int k = 0; k < Hc; ++k) {
-          S acc = S(0);
-#pragma GCC unroll 16
-          for (int l = 0; l < Hc; ++l) acc += c(j, l) * dp(l, k);
-          e[i](j, k) = acc;
-          acc_x += c(j, k) * xi_[i][k];
-          acc_v += dp(j, k) * v[k];
-        }
-        cx[i][j] = acc_x;
-        tr += e[i](j, j);
-        vdv += v[j] * acc_v;
-        vx += v[j] * xi_[i][j];
-      }
-      g_[i] += S(-0.5) * tr + S(0.5) * vdv + vx;
-      h_[i] += S(0.5) * tr;
-      for (int m = 0; m <= i; ++m) {
-        // 1/2 tr(E_i E_m) + xi_i,h^T C xi_m,h; tr(E_i E_m) = sum_jk E_i(j, k) E_m(k, j)
-        S t = S(0);
-        S xx = S(0);
-#pragma GCC unroll 16
-        for (int j = 0; j < Hc; ++j) {
-#pragma GCC unroll 16
-          for (int k = 0; k < Hc; ++k) t += e[i](j, k) * e[m](k, j);
-          xx += cx[i][j] * xi_[m][j];
-        }
-        const S add = S(0.5) * t + xx;
-        info_(i, m) += add;
-        if (m != i) info_(m, i) += add;
-      }
-    }
-    for (int i = 0; i < M; ++i) {
-      // With Z = dP_:h: (I - U E_h^T) dP (I - U E_h^T)^T = dP - U Z^T - Z U^T + U dP_hh U^T
-      //                                                = dP - U R^T - R U^T, R = Z - 1/2 U dP_hh
-      // (a symmetric update: the upper triangle, mirrored). xi <- w - U w_h, w = xi + Z v.
-      StateMat& dp = dp_[i];
-      NxH r;
-      S w[Ns];
-#pragma GCC unroll 16
-      for (int j = 0; j < Ns; ++j) {
-        S acc_w = xi_[i][j];
-#pragma GCC unroll 16
-        for (int k = 0; k < Hc; ++k) {
-          S acc = S(0);
-#pragma GCC unroll 16
-          for (int l = 0; l < Hc; ++l) acc += u(j, l) * dp(l, k);
-          r(j, k) = dp(j, k) - S(0.5) * acc;
-          acc_w += dp(j, k) * v[k];
-        }
-        w[j] = acc_w;
-      }
-#pragma GCC unroll 16
-      for (int j = 0; j < Ns; ++j) {
-        S acc = w[j];
-#pragma GCC unroll 16
-        for (int k = 0; k < Hc; ++k) acc -= u(j, k) * w[k];
-        xi_[i][j] = acc;
-      }
-#pragma GCC unroll 16
-      for (int row = 0; row < Ns; ++row) {
-#pragma GCC unroll 16
-        for (int col = row; col < Ns; ++col) {
-          S acc = dp(row, col);
-#pragma GCC unroll 16
-          for (int k = 0; k < Hc; ++k) acc -= u(row, k) * r(col, k) + r(row, k) * u(col, k);
-          dp(row, col) = acc;
-          dp(col, row) = acc;
-        }
-      }
-    }
-    ++counters_.scans;
-    ++taken_;
-    return true;
-  }
+                            const StateMat& p_post, const StateVec& x_post);
 
   /// At the end of a cycle: a K step every `every` cycles. Returns true when K moved.
   bool endCycle(const StateVec& x, const StateMat& p) {
@@ -456,22 +302,41 @@ class KMaxLikelihood {
       return false;
     }
     taken_ = 0;
-    if (cfg_.deflate) deflateBySystematic(x, p);
-    const KMat dk = kf_.asDiagonal();
-    const KMat info_t = dk * info_ * dk;
-    KVec g_t = dk * g_;
-    if (cfg_.inflate > S(0)) shiftScore(info_t, &g_t);
+    const bool hs = headingScaleOn();
+    if (cfg_.deflate && !hs) deflateBySystematic(x, p);
+    // c's prior from the AKF's delta_d (sets c_f); without c a unit prior and no score hold
+    // its entry still.
+    S prior_info = S(1);
+    S prior_mean = S(0);
+    if constexpr (kHeadingScale) {
+      if (hs) headingScalePrior(x, p, &prior_info, &prior_mean);
+    }
+    PVec dk = kf_;
+    if constexpr (kHeadingScale) dk[kC] = S(1);  // c's sensitivities are in log c already
+    const PMat info_t = dk.asDiagonal() * info_ * dk.asDiagonal();
+    PVec g_t = dk.asDiagonal() * g_;
+    if (cfg_.inflate > S(0) || hs) shiftScore(info_t, &g_t);
+    if constexpr (kHeadingScale) {
+      // The prior's pull at log c now, less the last step's, which the data balanced there
+      // (forgotten with J by lambda).
+      if (hs) {
+        const S lc = std::log(k_[kC]);
+        g_t[kC] += lambda_ * prior_info_ * (lc - prior_mean_) - prior_info * (lc - prior_mean);
+      }
+    }
+    prior_info_ = prior_info;
+    prior_mean_ = prior_mean;
     j_ = lambda_ * j_ + info_t;
     lambda_ = cfg_.lambda_rate * lambda_ + (S(1) - cfg_.lambda_rate);
     g_.setZero();
     h_.setZero();
     info_.setZero();
-    Eigen::LLT<KMat> llt(j_);
+    Eigen::LLT<PMat> llt(withPrior());
     if (llt.info() != Eigen::Success || !g_t.allFinite()) {
       ++counters_.skipped;
       return false;
     }
-    KVec step = llt.solve(g_t);
+    PVec step = llt.solve(g_t);
     if (!step.allFinite()) {
       ++counters_.skipped;
       return false;
@@ -481,7 +346,7 @@ class KMaxLikelihood {
       step *= cfg_.max_log_step / big;
       ++counters_.clipped;
     }
-    for (int i = 0; i < M; ++i) k_[i] *= std::exp(step[i]);
+    for (int i = 0; i < active(); ++i) k_[i] *= std::exp(step[i]);
     ++counters_.steps;
     if (cfg_.reset_log > S(0)) {
       S moved = S(0);
@@ -490,7 +355,7 @@ class KMaxLikelihood {
         j_ *= cfg_.reset_keep;
         lambda_ = cfg_.lambda0;
         k_ref_ = k_;
-        for (int i = 0; i < M; ++i) {
+        for (int i = 0; i < P; ++i) {
           dp_[i].setZero();
           xi_[i].setZero();
         }
@@ -513,18 +378,20 @@ class KMaxLikelihood {
   /// two agree near K_f; where the data are saturated (g = -h: no innovation left) the line
   /// pushes K up by I D while the model stays at -h, and where little of s comes from K the
   /// model's curvature overstates the rise (measured: K_rho 1.02x at 30 m with it alone).
-  void shiftScore(const KMat& info_t, KVec* g_t) const {
-    KVec dtheta;
-    for (int i = 0; i < M; ++i) dtheta[i] = std::log(kf_[i] / k_[i]);
-    const KVec line = *g_t + info_t * dtheta;
+  /// c (kHeadingScale) takes the line: the AKF never predicts with it, and log c_f - log c
+  /// has either sign.
+  void shiftScore(const PMat& info_t, PVec* g_t) const {
+    PVec dtheta = PVec::Zero();
+    for (int i = 0; i < active(); ++i) dtheta[i] = std::log(kf_[i] / k_[i]);
+    const PVec line = *g_t + info_t * dtheta;
     if (!cfg_.scale_shift) {
       *g_t = line;
       return;
     }
-    for (int i = 0; i < M; ++i) {
+    for (int i = 0; i < P; ++i) {
       const S h = kf_[i] * h_[i];
       S g = line[i];
-      if (h > S(0) && dtheta[i] > S(0)) {
+      if (i < M && h > S(0) && dtheta[i] > S(0)) {
         g = std::min(g, scaleShiftedScore((*g_t)[i], h, std::min(info_t(i, i) / h, S(1)), dtheta[i]));
       }
       (*g_t)[i] = g;
@@ -540,6 +407,39 @@ class KMaxLikelihood {
     if (!(dd > S(0)) || !(p(kD, kD) >= S(0))) return S(0);
     return S(4) * p(kD, kD) / (dd * dd);
   }
+
+  /// c's prior (kHeadingScale): log c ~ N(-2 log delta_d, 4 P_dd / delta_d^2) from the AKF's
+  /// state and covariance; sets c_f = 1 / delta_d^2, and c itself at the first step. Where
+  /// delta_d is not usable the last prior stays.
+  void headingScalePrior(const StateVec& x, const StateMat& p, S* info, S* mean) {
+    constexpr int kD = Model::kDriveOffset + Drive::kDeltaD;
+    const S v = deltaDVarLogKw(x, p);  // 0 where delta_d or P_dd is not usable
+    if (v > S(0)) {
+      const S dd = x[kD];
+      kf_[kC] = S(1) / (dd * dd);
+      *mean = std::log(kf_[kC]);
+      *info = S(1) / std::max(v, cfg_.min_heading_scale_var);
+    } else if (prior_info_ > S(0)) {
+      *mean = prior_mean_;
+      *info = prior_info_;
+    } else {
+      kf_[kC] = S(1);
+      *mean = S(0);
+      *info = S(1);
+    }
+    if (!(k_[kC] > S(0))) {  // the first step: c starts at the AKF's
+      k_[kC] = kf_[kC];
+      prior_mean_ = *mean;
+    }
+  }
+
+  /// J with c's prior (kHeadingScale).
+  PMat withPrior() const {
+    PMat jp = j_;
+    if constexpr (kHeadingScale) jp(kC, kC) += prior_info_;
+    return jp;
+  }
+  int active() const { return headingScaleOn() ? P : M; }
 
   /// KMlConfig::deflate: on the differential drive, this step's score and information on
   /// K_w scaled by 1 / (1 + I v), v = deltaDVarLogKw; nothing on the synchronous drive, whose
@@ -560,18 +460,18 @@ class KMaxLikelihood {
   /// J^-1 from its factor (info() checked by the caller), one column at a time: a solve with
   /// a matrix right-hand side goes through Eigen's blocked triangular solve, which refers
   /// to malloc, and the firmware's link refuses that (heap trap).
-  static KMat inverseOf(const Eigen::LLT<KMat>& llt) {
-    KMat ci;
-    for (int i = 0; i < M; ++i) ci.col(i) = llt.solve(KVec::Unit(i));
+  static PMat inverseOf(const Eigen::LLT<PMat>& llt) {
+    PMat ci;
+    for (int i = 0; i < P; ++i) ci.col(i) = llt.solve(PVec::Unit(i));
     return ci;
   }
 
   void updateFilterK() {
-    kf_ = k_;
+    kf_.template head<M>() = k_.template head<M>();  // c_f stays the AKF's 1 / delta_d^2
     if (!(cfg_.inflate > S(0))) return;
-    Eigen::LLT<KMat> llt(j_);
+    Eigen::LLT<PMat> llt(withPrior());
     const bool ok = llt.info() == Eigen::Success;
-    const KMat ci = ok ? inverseOf(llt) : KMat::Zero();
+    const PMat ci = ok ? inverseOf(llt) : PMat::Zero();
     for (int i = 0; i < M; ++i) {
       const S sig = ok && ci(i, i) > S(0) ? std::sqrt(ci(i, i)) : cfg_.max_inflate_log;
       const S up = std::min(cfg_.inflate * sig - cfg_.inflate_offset, cfg_.max_inflate_log);
@@ -580,21 +480,26 @@ class KMaxLikelihood {
   }
 
   KMlConfig<S> cfg_{};
-  KVec k_ = KVec::Ones();
-  KVec kf_ = KVec::Ones();
-  KVec k_ref_ = KVec::Ones();  ///< K when J was last restarted
-  StateMat dp_[M];
-  StateVec xi_[M];
-  KVec g_ = KVec::Zero();
-  KMat info_ = KMat::Zero();
-  KMat j_ = KMat::Zero();
+  PVec k_ = PVec::Ones();   ///< K, then c (kHeadingScale)
+  PVec kf_ = PVec::Ones();  ///< K_f, then c_f = 1 / delta_d^2 (the AKF's)
+  PVec k_ref_ = PVec::Ones();  ///< K when J was last restarted
+  StateMat dp_[P];
+  StateVec xi_[P];
+  PVec g_ = PVec::Zero();
+  PMat info_ = PMat::Zero();
+  PMat j_ = PMat::Zero();  ///< the information gathered (without c's prior)
+  S prior_info_ = S(0);    ///< c's prior information at the last step (kHeadingScale)
+  S prior_mean_ = S(0);    ///< and its mean, log c_f
   S lambda_ = S(0.9);
   int cycles_ = 0;
   int taken_ = 0;  ///< scans (or beams) taken since the last step
   S overstated_ = S(1);
-  KVec kf_min_ = KVec::Ones();  ///< the smallest K_f since the last discount
-  KVec h_ = KVec::Zero();  ///< 1/2 tr(C dP_i): what the score of K_i would be with no innovation
+  PVec kf_min_ = PVec::Ones();  ///< the smallest K_f since the last discount
+  PVec h_ = PVec::Zero();  ///< 1/2 tr(C dP_i): what the score of K_i would be with no innovation
   KMlCounters counters_{};
 };
 
 }  // namespace odoerr
+
+// The members defined out of the class.
+#include "odoerr/k_ml_scan.hpp"  // NOLINT(build/include_order): KMaxLikelihood::scan
