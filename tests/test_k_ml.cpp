@@ -429,8 +429,28 @@ TEST(KMl, HeadingScaleNarrowsKwFromBelowOnTheEight) {
   std::printf("K_w at 30 m from below on the eight: with c %.3fx spread %.3f sigma %.3f, deflated %.3fx spread %.3f "
               "sigma %.3f\n",
               on.k_ratio[0], on.k_spread[0], on.k_sigma[0], off.k_ratio[0], off.k_spread[0], off.k_sigma[0]);
-  EXPECT_LT(on.k_spread[0], 0.85 * off.k_spread[0]);
+  EXPECT_LT(on.k_spread[0], 0.9 * off.k_spread[0]);
   EXPECT_NEAR(on.k_ratio[0], 1.0, 0.05);
+  const double honesty = on.k_sigma[0] / on.k_spread[0];
+  EXPECT_GT(honesty, 1 / 1.5);
+  EXPECT_LT(honesty, 1.5);
+}
+
+// The circle, from 100x above, 100 runs of 30 m: there the AKF does not learn delta_d (it
+// stays near its prior's 1.0 against the true 1.1), and K_w read through it was 0.87x the
+// truth; with c estimated it is within 5 % (printed: 0.980x against 0.872x), its sigma honest.
+TEST(KMl, HeadingScaleLiftsKwOnTheCircleFromAbove) {
+  const KMlConfig<double> def;
+  KMlConfig<double> hs = def;
+  hs.heading_scale = true;
+  const McStats on = monteCarlo<DiffDrive>(100, 30, NonSysStart::kLarge, hs);
+  const McStats off = monteCarlo<DiffDrive>(100, 30, NonSysStart::kLarge, def);
+  std::printf("K_w at 30 m from above on the circle: with c %.3fx spread %.3f sigma %.3f, without %.3fx spread %.3f "
+              "sigma %.3f\n",
+              on.k_ratio[0], on.k_spread[0], on.k_sigma[0], off.k_ratio[0], off.k_spread[0], off.k_sigma[0]);
+  EXPECT_NEAR(on.k_ratio[0], 1.0, 0.05);
+  EXPECT_LT(off.k_ratio[0], 0.95) << "the bias this removes is gone by itself: the test no longer tests it";
+  EXPECT_LT(on.k_spread[0], off.k_spread[0]);
   const double honesty = on.k_sigma[0] / on.k_spread[0];
   EXPECT_GT(honesty, 1 / 1.5);
   EXPECT_LT(honesty, 1.5);

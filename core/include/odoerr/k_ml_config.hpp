@@ -64,11 +64,13 @@ struct KMlConfig {
   /// noise K_w (|dR| + |dL|) / (d delta_d)^2 sees it, with the AKF's knowledge of delta_d as
   /// its prior (KMaxLikelihood::kHeadingScale): the translation noise and the heading noise
   /// then tell K_w and delta_d apart, and deflate does not apply. The AKF keeps predicting
-  /// with its own delta_d; c's score is carried to c along the Gauss-Newton line. Off by
-  /// default: on the figure-eight it brings K_w from 5.7 to 4.2 % (from below; 1.05x its joint
-  /// bound), but on the circle, where the AKF does not learn delta_d, the noise's own
-  /// delta_d comes out 0.86-0.88x the truth and K_w 0.81-0.88x, no better than without
-  /// (docs/nonsystematic.md "K_w and delta_d").
+  /// with its own delta_d; c's score is carried to c along the Gauss-Newton line, and K_f's
+  /// inflation follows K's uncertainty with c held. Measured (100 runs, 30 m, below / above):
+  /// K_w on the circle 1.018x / 0.980x the truth at 20.0 / 13.1 % (1.58x / 1.03x its joint
+  /// bound; without: 0.894x / 0.872x at 27.4 / 16.5 %), on the eight 4.6 / 4.3 % (1.15x /
+  /// 1.08x). Off by default: from below on the circle the AKF's delta_R, delta_L spread 1.1-1.6 %
+  /// against the paper OF's 0.8-1.0 %, and on the Cortex-M4F the cycle is 20,450 instructions
+  /// with it (docs/nonsystematic.md "K_w and delta_d: the heading noise's scale estimated").
   bool heading_scale = false;
   /// The smallest variance of c's prior (log c), for a delta_d the AKF holds as known.
   S min_heading_scale_var = S(1e-6);
