@@ -1,11 +1,12 @@
-// The recursive maximum-likelihood estimator of K (core/include/odoerr/k_ml.hpp): its score in
-// each form (per beam, per whole scan, per whole scan with the pose's sensitivities only)
-// against central differences of the AKF's innovation log-likelihood on a recorded drive; the
-// forms' information against each other.
+// The recursive maximum-likelihood estimator of K (core/include/odoerr/k_ml.hpp): how it
+// behaves on closed-loop drives (Monte Carlo from both starts, the inflation, the discount,
+// the heading noise's scale) and its whole-scan update (KMlScan). Its score against the
+// likelihood's finite differences: test_k_ml_score.cpp.
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <random>
 #include <utility>
 #include <vector>
@@ -14,176 +15,6 @@
 
 using namespace odoerr;
 using namespace odoerr::sim;
-
-namespace {
-
-template <template <typename> class DriveT>
-void checkScore(double tol) {
-  using D = DriveT<double>;
-  SimConfig cfg;
-  cfg.steps = 200;  // 2 m
-  FilterSetup setup;
-  std::vector<SimStep<D>> steps;
-  StepSink<D> sink = [&steps](const SimStep<D>& st) { steps.push_back(st); };
-  (void)runDrive<double, DriveT>(cfg, 7, NonSysStart::kSmall, setup, cfg.steps, sink);
-  ASSERT_EQ(int(steps.size()), cfg.steps);
-  PaperSim<D> sim(cfg, 7);
-  const typename D::NonSysVec k_true = sim.trueNonSys();
-  KMlConfig<double> mc;
-  mc.every = 1 << 30;  // never steps: K stays where it is set, the score accumulates
-  mc.inflate = 0;      // the AKF runs with K itself
-  mc.reset_log = 0;
-  using KMat = Eigen::Matrix<double, D::kNonSys, D::kNonSys>;
-  KMat info_last = KMat::Zero();
-  using Form = KMlForm;
-  auto replay = [&](const typename D::NonSysVec& k, double* ll, typename D::NonSysVec* score, int* used,
-                    Form form = Form::kBeam) {
-    auto est = makeEstimator<double, DriveT>(sim, setup, NonSysStart::kSmall);
-    KMlConfig<double> c = mc;
-    c.form = form;
-    MlDriver<decltype(est)> drv(est, c);
-    drv.restartK(k);
-    std::vector<double> ranges(std::size_t(kMaxBeams), 0.0);
-    for (const auto& st : steps) {
-      const auto u = convertInput<typename decltype(est)::Input>(st.input);
-      for (int i = 0; i < cfg.laser.beams; ++i) ranges[std::size_t(i)] = st.ranges[std::size_t(i)];
-      drv.cycle(u, ranges.data());
-    }
-    *ll = drv.logLikelihood();
-    *score = drv.ml().blockScore().template head<D::kNonSys>();  // K (c, when estimated, follows)
-    *used = int(drv.akf().counters().beams_used);
-    info_last = drv.ml().blockInformation().template topLeftCorner<D::kNonSys, D::kNonSys>();
-  };
-  double ll0 = 0;
-  typename D::NonSysVec score;
-  int used0 = 0;
-  replay(k_true, &ll0, &score, &used0);
-  ASSERT_GT(used0, 1000);
-  const KMat info_beam = info_last;
-  double ll_scan = 0;
-  typename D::NonSysVec score_scan, score_pose;
-  int used_scan = 0;
-  replay(k_true, &ll_scan, &score_scan, &used_scan, Form::kScan);
-  ASSERT_EQ(used_scan, used0) << "the scan form changed the AKF";
-  const KMat info_scan = info_last;
-  replay(k_true, &ll_scan, &score_pose, &used_scan, Form::kPose);
-  ASSERT_EQ(used_scan, used0) << "the pose form changed the AKF";
-  const KMat info_pose = info_last;
-  const double eps = 1e-3;
-  for (int i = 0; i < D::kNonSys; ++i) {
-    typename D::NonSysVec kp = k_true, km = k_true, dummy;
-    kp[i] *= 1 + eps;
-    km[i] *= 1 - eps;
-    double llp = 0, llm = 0;
-    int up = 0, um = 0;
-    replay(kp, &llp, &dummy, &up);
-    replay(km, &llm, &dummy, &um);
-    ASSERT_EQ(up, used0) << "the fused beams changed with K: the difference is not a derivative";
-    ASSERT_EQ(um, used0);
-    const double fd = (llp - llm) / (2 * eps * k_true[i]);
-    std::printf("score[%d] recursion %.6g  central difference %.6g  (rel %.3g)\n", i, score[i], fd,
-                std::abs(score[i] - fd) / std::abs(fd));
-    std::printf("score[%d] whole scans %.6g  (rel %.3g)\n", i, score_scan[i], std::abs(score_scan[i] - fd) / std::abs(fd));
-    EXPECT_NEAR(score[i], fd, tol * std::abs(fd)) << "K index " << i;
-    EXPECT_NEAR(score_scan[i], fd, tol * std::abs(fd)) << "K index " << i << " (whole scans)";
-    // The pose form leaves out the systematic parameters' sensitivities: its score is another
-    // unbiased estimating equation, not the likelihood's derivative. Measured in units of the
-    // score's standard deviation (sqrt of the information), it stays close: 0.03-0.07.
-    const double sd = std::sqrt(info_beam(i, i));
-    std::printf("score[%d] pose form %.6g  (%.3f standard deviations from the central difference)\n", i,
-                score_pose[i], std::abs(score_pose[i] - fd) / sd);
-    EXPECT_LT(std::abs(score_pose[i] - fd), 0.15 * sd) << "K index " << i << " (pose form)";
-    for (int j = 0; j < D::kNonSys; ++j) {
-      std::printf("info(%d,%d) per beam %.6g  whole scans %.6g  pose form %.6g\n", i, j, info_beam(i, j),
-                  info_scan(i, j), info_pose(i, j));
-      EXPECT_NEAR(info_pose(i, j), info_beam(i, j), tol * std::sqrt(info_beam(i, i) * info_beam(j, j)));
-      EXPECT_NEAR(info_scan(i, j), info_beam(i, j), tol * std::sqrt(info_beam(i, i) * info_beam(j, j)));
-    }
-  }
-}
-
-/// The differential drive's heading-noise scale c (KMlConfig::heading_scale): the score of
-/// log c the recursion carries, in each form, against central differences of the innovation
-/// log-likelihood of an AKF whose G has its heading row scaled by sqrt(c) (Akf::predict's
-/// observer may rescale it), at c = 1.
-void checkHeadingScaleScore(double tol) {
-  using D = DiffDrive<double>;
-  SimConfig cfg;
-  cfg.steps = 200;  // 2 m
-  FilterSetup setup;
-  std::vector<SimStep<D>> steps;
-  StepSink<D> sink = [&steps](const SimStep<D>& st) { steps.push_back(st); };
-  (void)runDrive<double, DiffDrive>(cfg, 7, NonSysStart::kSmall, setup, cfg.steps, sink);
-  ASSERT_EQ(int(steps.size()), cfg.steps);
-  PaperSim<D> sim(cfg, 7);
-  const D::NonSysVec k_true = sim.trueNonSys();
-  KMlConfig<double> mc;
-  mc.every = 1 << 30;  // never steps: the score accumulates at c = 1 (the AKF's own delta_d)
-  mc.inflate = 0;
-  mc.reset_log = 0;
-  mc.heading_scale = true;
-  std::vector<double> ranges(std::size_t(kMaxBeams), 0.0);
-  auto score = [&](KMlForm form, double* info) {
-    auto est = makeEstimator<double, DiffDrive>(sim, setup, NonSysStart::kSmall);
-    KMlConfig<double> c = mc;
-    c.form = form;
-    MlDriver<decltype(est)> drv(est, c);
-    drv.restartK(k_true);
-    for (const auto& st : steps) {
-      const auto u = convertInput<decltype(est)::Input>(st.input);
-      for (int i = 0; i < cfg.laser.beams; ++i) ranges[std::size_t(i)] = st.ranges[std::size_t(i)];
-      drv.cycle(u, ranges.data());
-    }
-    EXPECT_EQ(drv.ml().blockScore().size(), 2) << "K_w and c";
-    *info = drv.ml().blockInformation()(1, 1);
-    return drv.ml().blockScore()[1];
-  };
-  auto logLikelihood = [&](double c, int* used) {
-    auto est = makeEstimator<double, DiffDrive>(sim, setup, NonSysStart::kSmall);
-    auto akf = est.akf();
-    const double f = std::sqrt(c);
-    double ll = 0;
-    for (const auto& st : steps) {
-      const auto u = convertInput<decltype(est)::Input>(st.input);
-      auto scale = [f](const auto&, auto& g) { g.row(PoseIdx::kTheta) *= f; };
-      if (akf.predict(u, k_true, 0.0, scale) != Status::kOk) continue;
-      for (int i = 0; i < cfg.laser.beams; ++i) ranges[std::size_t(i)] = st.ranges[std::size_t(i)];
-      auto observe = [&ll](const auto& rec) {
-        if (rec.status != Status::kOk) return;
-        const double nu = rec.measured - rec.predicted;
-        ll += -0.5 * (std::log(rec.variance) + nu * nu / rec.variance);
-      };
-      (void)akf.updateScan(est.map(), est.laser(), ranges.data(), observe);
-    }
-    *used = int(akf.counters().beams_used);
-    return ll;
-  };
-  const double eps = 1e-3;
-  int up = 0, um = 0, u0 = 0;
-  (void)logLikelihood(1.0, &u0);
-  const double fd =
-      (logLikelihood(1 + eps, &up) - logLikelihood(1 - eps, &um)) / (std::log(1 + eps) - std::log(1 - eps));
-  ASSERT_GT(u0, 1000);
-  ASSERT_EQ(up, u0) << "the fused beams changed with c: the difference is not a derivative";
-  ASSERT_EQ(um, u0);
-  double info = 0;
-  const double beam = score(KMlForm::kBeam, &info);
-  const double sd = std::sqrt(info);
-  double unused = 0;
-  const double whole = score(KMlForm::kScan, &unused);
-  const double pose = score(KMlForm::kPose, &unused);
-  std::printf("score of log c: central difference %.6g, per beam %.6g, whole scans %.6g, pose form %.6g "
-              "(information %.4g)\n", fd, beam, whole, pose, info);
-  EXPECT_NEAR(beam, fd, tol * std::abs(fd));
-  EXPECT_NEAR(whole, fd, tol * std::abs(fd));
-  EXPECT_LT(std::abs(pose - fd), 0.15 * sd) << "pose form, in units of the score's standard deviation";
-}
-
-}  // namespace
-
-TEST(KMl, ScoreMatchesFiniteDifferenceSync) { checkScore<SyncDrive>(0.05); }
-TEST(KMl, ScoreMatchesFiniteDifferenceDiff) { checkScore<DiffDrive>(0.05); }
-TEST(KMl, HeadingScaleScoreMatchesFiniteDifference) { checkHeadingScaleScore(0.05); }
 
 namespace {
 
@@ -667,4 +498,50 @@ TEST_F(KMlScan, RestartKeepsItsShareOfTheInformation) {
   EXPECT_EQ(k3, k1) << "the step itself does not depend on reset_keep";
   EXPECT_NEAR(c3 / c1, 1 / 0.3, 1e-9);
   EXPECT_DOUBLE_EQ(c0, k0 * k0);
+}
+
+// The heading noise's scale c takes its prior from the AKF's delta_d at every step; where
+// that is not usable (delta_d not finite, or P_dd zero) the step keeps the last prior, and
+// before any usable one c starts at 1. K, c and the covariance stay finite and positive.
+TEST_F(KMlScan, HeadingScaleKeepsItsPriorWhereDeltaDIsUnusable) {
+  KMlConfig<double> c;
+  c.every = 1;
+  c.heading_scale = true;
+  const Ml::StateVec x = est.akf().state();
+  const Ml::StateMat p = est.akf().covariance();
+  constexpr int kD = Model::kDriveOffset + DiffDrive<double>::kDeltaD;
+  Ml::StateVec x_bad = x;
+  x_bad[kD] = std::numeric_limits<double>::quiet_NaN();
+  Ml::StateMat p_zero = p;
+  p_zero(kD, kD) = 0;
+  Ml::StateMat p_post = p;
+  p_post.topLeftCorner<3, 3>() *= 0.5;
+  const Model::Input u{0.01, 0.011};
+  auto cycle = [&](Ml* ml, const Ml::StateVec& xs, const Ml::StateMat& ps) {
+    predict(ml, est.akf().model(), x, u);
+    const Eigen::Matrix<double, N, 3> p3 = p.leftCols<3>();
+    ASSERT_TRUE((ml->scan<3, 3>(p3, x.head<3>(), p_post, x)));
+    (void)ml->endCycle(xs, ps);
+  };
+  auto finite = [](const Ml& ml) {
+    return ml.estimate().allFinite() && ml.estimate().minCoeff() > 0 && ml.covariance().allFinite() &&
+           std::isfinite(ml.noiseDeltaD()) && ml.noiseDeltaD() > 0;
+  };
+  // Unusable from the first step: c starts at 1 (delta_d 1 as the noise sees it).
+  Ml first(c);
+  first.init(sim.trueNonSys());
+  cycle(&first, x_bad, p);
+  ASSERT_EQ(first.counters().steps, 1u);
+  EXPECT_TRUE(finite(first));
+  EXPECT_NEAR(first.noiseDeltaD(), 1.0, 0.5);
+  // Usable, then unusable both ways: the steps go on and nothing turns NaN.
+  Ml ml(c);
+  ml.init(sim.trueNonSys());
+  for (int k = 0; k < 3; ++k) cycle(&ml, x, p);
+  ASSERT_TRUE(finite(ml));
+  for (int k = 0; k < 3; ++k) cycle(&ml, x_bad, p);
+  for (int k = 0; k < 3; ++k) cycle(&ml, x, p_zero);
+  EXPECT_EQ(ml.counters().steps, 9u);
+  EXPECT_EQ(ml.counters().skipped, 0u);
+  EXPECT_TRUE(finite(ml));
 }

@@ -83,13 +83,13 @@ class KMaxLikelihood {
     j_.setZero();
     prior_info_ = S(0);
     prior_mean_ = S(0);
-    k_ref_ = k_;
+    k_ref_ = k0;
     lambda_ = cfg_.lambda0;
     cycles_ = 0;
     taken_ = 0;
     updateFilterK();
     overstated_ = S(1);
-    kf_min_ = kf_;
+    kf_min_ = filterK();
   }
 
   KVec estimate() const { return k_.template head<M>(); }
@@ -354,7 +354,7 @@ class KMaxLikelihood {
       if (moved > cfg_.reset_log) {
         j_ *= cfg_.reset_keep;
         lambda_ = cfg_.lambda0;
-        k_ref_ = k_;
+        k_ref_ = estimate();
         for (int i = 0; i < P; ++i) {
           dp_[i].setZero();
           xi_[i].setZero();
@@ -383,19 +383,16 @@ class KMaxLikelihood {
   void shiftScore(const PMat& info_t, PVec* g_t) const {
     PVec dtheta = PVec::Zero();
     for (int i = 0; i < active(); ++i) dtheta[i] = std::log(kf_[i] / k_[i]);
-    const PVec line = *g_t + info_t * dtheta;
-    if (!cfg_.scale_shift) {
-      *g_t = line;
-      return;
-    }
-    for (int i = 0; i < P; ++i) {
-      const S h = kf_[i] * h_[i];
-      S g = line[i];
-      if (i < M && h > S(0) && dtheta[i] > S(0)) {
-        g = std::min(g, scaleShiftedScore((*g_t)[i], h, std::min(info_t(i, i) / h, S(1)), dtheta[i]));
+    PVec line = *g_t + info_t * dtheta;
+    if (cfg_.scale_shift) {
+      for (int i = 0; i < M; ++i) {
+        const S h = kf_[i] * h_[i];
+        if (h > S(0) && dtheta[i] > S(0)) {
+          line[i] = std::min(line[i], scaleShiftedScore((*g_t)[i], h, std::min(info_t(i, i) / h, S(1)), dtheta[i]));
+        }
       }
-      (*g_t)[i] = g;
     }
+    *g_t = line;
   }
 
   /// The variance delta_d's uncertainty adds to log K_w (differential drive): the heading
@@ -472,7 +469,6 @@ class KMaxLikelihood {
     const PMat jp = withPrior();
     Eigen::LLT<PMat> llt(jp);
     const bool ok = llt.info() == Eigen::Success;
-    const PMat ci = ok ? inverseOf(llt) : PMat::Zero();
     // With c estimated, K's uncertainty with c held (1 / J_ii): on the differential drive the
     // AKF's Q is mostly the heading noise, which the data fix as K_w c, far better than K_w
     // alone (J is nearly singular along log K_w - log c). The marginal sigma kept the
@@ -480,6 +476,7 @@ class KMaxLikelihood {
     // 0.88x / 0.81x the truth at 30 m on the circle (100 runs), against 1.018x / 0.980x with
     // this (docs/nonsystematic.md "K_w and delta_d: the heading noise's scale estimated").
     const bool held = headingScaleOn();
+    const PMat ci = ok && !held ? inverseOf(llt) : PMat::Zero();
     for (int i = 0; i < M; ++i) {
       const S var = held ? (jp(i, i) > S(0) ? S(1) / jp(i, i) : S(0)) : ci(i, i);
       const S sig = ok && var > S(0) ? std::sqrt(var) : cfg_.max_inflate_log;
@@ -491,7 +488,7 @@ class KMaxLikelihood {
   KMlConfig<S> cfg_{};
   PVec k_ = PVec::Ones();   ///< K, then c (kHeadingScale)
   PVec kf_ = PVec::Ones();  ///< K_f, then c_f = 1 / delta_d^2 (the AKF's)
-  PVec k_ref_ = PVec::Ones();  ///< K when J was last restarted
+  KVec k_ref_ = KVec::Ones();  ///< K when J was last restarted
   StateMat dp_[P];
   StateVec xi_[P];
   PVec g_ = PVec::Zero();
@@ -503,7 +500,7 @@ class KMaxLikelihood {
   int cycles_ = 0;
   int taken_ = 0;  ///< scans (or beams) taken since the last step
   S overstated_ = S(1);
-  PVec kf_min_ = PVec::Ones();  ///< the smallest K_f since the last discount
+  KVec kf_min_ = KVec::Ones();  ///< the smallest K_f since the last discount
   PVec h_ = PVec::Zero();  ///< 1/2 tr(C dP_i): what the score of K_i would be with no innovation
   KMlCounters counters_{};
 };
