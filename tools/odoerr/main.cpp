@@ -173,7 +173,7 @@ int main(int argc, char** argv) {
   bool ml_no_discount = false;
   bool ml_line_shift = false;
   bool ml_no_deflate = false;
-  bool ml_heading_scale = false;
+  bool ml_no_heading_scale = false;
   double ml_reset_keep = KMlConfig<double>{}.reset_keep;
   double ml_discount_above = KMlConfig<double>{}.discount_above;
   double ml_inflate_cap = std::round(std::exp(KMlConfig<double>{}.max_inflate_log));
@@ -224,10 +224,11 @@ int main(int argc, char** argv) {
                   "default the smaller of the line and the variance-scale model)");
   paper->add_flag("--ml-no-deflate", ml_no_deflate,
                   "ml, diff drive: keep each step's information on K_w whole (by default it is deflated "
-                  "by delta_d's uncertainty; not with --ml-heading-scale)");
-  paper->add_flag("--ml-heading-scale", ml_heading_scale,
-                  "ml, diff drive: estimate beside K_w the heading noise's scale, 1/delta_d^2 as the "
-                  "noise sees it, with the AKF's delta_d as its prior (by default K_w alone)");
+                  "by delta_d's uncertainty; only with --ml-no-heading-scale)");
+  paper->add_flag("--ml-no-heading-scale", ml_no_heading_scale,
+                  "ml, diff drive: estimate K_w alone, read through the AKF's delta_d (by default the "
+                  "heading noise's scale, 1/delta_d^2 as the noise sees it, is estimated beside K_w with "
+                  "the AKF's delta_d as its prior)");
   paper->add_option("--ml-reset-keep", ml_reset_keep, "ml: the share of the information a restart keeps (0..1)")
       ->check(CLI::Range(0.0, 1.0))
       ->capture_default_str();
@@ -310,7 +311,7 @@ int main(int argc, char** argv) {
     (void)parseKMlForm(ml_form, &mlc.form);  // CLI11 has checked the name
     mlc.scale_shift = !ml_line_shift;
     mlc.deflate = !ml_no_deflate;
-    mlc.heading_scale = ml_heading_scale;
+    mlc.heading_scale = !ml_no_heading_scale;
     return runPaper(drive, runs, out, seed, threads, !no_plots, pose_term, window, of_kind, mlc, path, radius);
   }
   if (replay->parsed()) {

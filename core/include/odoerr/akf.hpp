@@ -262,8 +262,12 @@ class Akf {
 
   /// Expected range of beam i from a robot pose, with dr/d(x, y, theta); (c, sn) are the
   /// cosine and sine of the pose's heading. kNoMapHit / kGrazing when not usable.
+  /// Always inlined, as predictBeam is: GCC had left the ray cast out of line in the ML
+  /// estimator's image (a second caller, the per-beam form), and predictBeam out of line in the
+  /// paper's once the cast was inlined into it; a call per beam cost the Cortex-M4F about
+  /// 1,700 instructions a cycle in the one and 360 in the other (docs/performance.md).
   template <typename MapT, int MaxBeams>
-  static Status expectedRange(const MapT& map,
+  ODOERR_ALWAYS_INLINE static Status expectedRange(const MapT& map,
                               const LaserGeometry<S, MaxBeams>& laser, S x, S y, S c, S sn,
                               int i, S min_cos_incidence, S* range, Eigen::Matrix<S, 1, 3>* h,
                               BeamContext<S>* geo = nullptr, const RayShift<S>* shift = nullptr);
@@ -396,7 +400,7 @@ class Akf {
   /// Predicted range of beam i at the current state (heading cos/sin given) and the first
   /// kHCols entries of its row of H.
   template <typename MapT, int MaxBeams>
-  Status predictBeam(const MapT& map, const LaserGeometry<S, MaxBeams>& laser,
+  ODOERR_ALWAYS_INLINE Status predictBeam(const MapT& map, const LaserGeometry<S, MaxBeams>& laser,
                      int i, S c, S sn, S* predicted, S* hf) const {
     Eigen::Matrix<S, 1, 3> h;
     if constexpr (Model::kHasMeasurementEffects) {

@@ -331,7 +331,22 @@ class KMaxLikelihood {
     g_.setZero();
     h_.setZero();
     info_.setZero();
-    Eigen::LLT<PMat> llt(withPrior());
+    PMat jp = withPrior();
+    if constexpr (kHeadingScale) {
+      // While the AKF predicts with an inflated K, c is held at the AKF's own c_f and K steps
+      // with c held; what the data say of c still gathers in J. Moved then, c took the score
+      // carried down from K_f with K's (the cross term, log K_f - log K up to log 30) and
+      // wandered, and the AKF's delta_R, delta_L suffered from below; left out of J instead,
+      // the information on K_w alone from that stretch (read at the AKF's delta_d) held K_w
+      // low: 0.92x (docs/nonsystematic.md "K_w and delta_d: the heading noise's scale
+      // estimated").
+      if (hs && inflated()) {
+        for (int i = 0; i < M; ++i) jp(i, kC) = jp(kC, i) = S(0);
+        g_t[kC] = S(0);
+        k_[kC] = kf_[kC];
+      }
+    }
+    Eigen::LLT<PMat> llt(jp);
     if (llt.info() != Eigen::Success || !g_t.allFinite()) {
       ++counters_.skipped;
       return false;
@@ -437,6 +452,13 @@ class KMaxLikelihood {
     return jp;
   }
   int active() const { return headingScaleOn() ? P : M; }
+  /// The AKF predicts with a K above the estimate (KMlConfig::inflate).
+  bool inflated() const {
+    for (int i = 0; i < M; ++i) {
+      if (kf_[i] > k_[i]) return true;
+    }
+    return false;
+  }
 
   /// KMlConfig::deflate: on the differential drive, this step's score and information on
   /// K_w scaled by 1 / (1 + I v), v = deltaDVarLogKw; nothing on the synchronous drive, whose

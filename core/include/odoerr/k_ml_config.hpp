@@ -64,14 +64,14 @@ struct KMlConfig {
   /// noise K_w (|dR| + |dL|) / (d delta_d)^2 sees it, with the AKF's knowledge of delta_d as
   /// its prior (KMaxLikelihood::kHeadingScale): the translation noise and the heading noise
   /// then tell K_w and delta_d apart, and deflate does not apply. The AKF keeps predicting
-  /// with its own delta_d; c's score is carried to c along the Gauss-Newton line, and K_f's
-  /// inflation follows K's uncertainty with c held. Measured (100 runs, 30 m, below / above):
-  /// K_w on the circle 1.018x / 0.980x the truth at 20.0 / 13.1 % (1.58x / 1.03x its joint
-  /// bound; without: 0.894x / 0.872x at 27.4 / 16.5 %), on the eight 4.6 / 4.3 % (1.15x /
-  /// 1.08x). Off by default: from below on the circle the AKF's delta_R, delta_L spread 1.1-1.6 %
-  /// against the paper OF's 0.8-1.0 %, and on the Cortex-M4F the cycle is 20,450 instructions
-  /// with it (docs/nonsystematic.md "K_w and delta_d: the heading noise's scale estimated").
-  bool heading_scale = false;
+  /// with its own delta_d; c's score is carried to c along the Gauss-Newton line, K_f's
+  /// inflation follows K's uncertainty with c held, and while K_f is inflated c is held at
+  /// the AKF's own (its information still gathers). Measured (100 runs, 30 m, below / above):
+  /// K_w on the circle 0.980x / 0.981x the truth at 15.1 / 13.0 % (1.19x / 1.03x its joint
+  /// bound; K_w alone: 0.894x / 0.872x at 27.4 / 16.5 %), on the eight 0.998x / 0.997x at
+  /// 4.4 / 4.5 % (1.11x / 1.12x). false: K_w alone, read through the AKF's delta_d
+  /// (docs/nonsystematic.md "K_w and delta_d: the heading noise's scale estimated").
+  bool heading_scale = true;
   /// The smallest variance of c's prior (log c), for a delta_d the AKF holds as known.
   S min_heading_scale_var = S(1e-6);
   /// The driver's form of the update (KMlForm).
