@@ -206,6 +206,7 @@ std::string summaryJson(const PaperResult& r) {
     j["ml"] = {{"every", r.ml.every},
                {"reset_log", r.ml.reset_log},
                {"inflate", r.ml.inflate},
+               {"inflate_held", r.ml.inflate_held},
                {"inflate_cap", std::round(std::exp(r.ml.max_inflate_log) * 1000.0) / 1000.0},
                {"form", toString(r.ml.form)},
                {"discount", r.ml.discount},

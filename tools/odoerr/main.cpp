@@ -169,6 +169,7 @@ int main(int argc, char** argv) {
   double radius = 0;
   double ml_reset = KMlConfig<double>{}.reset_log;
   double ml_inflate = KMlConfig<double>{}.inflate;
+  double ml_inflate_held = KMlConfig<double>{}.inflate_held;
   std::string ml_form = "pose";
   bool ml_no_discount = false;
   bool ml_line_shift = false;
@@ -206,6 +207,11 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   paper->add_option("--ml-inflate", ml_inflate,
                     "ml: run the AKF with K exp(C sigma_logK - 0.3) while K is uncertain (0: off)")
+      ->check(CLI::Range(0.0, 10.0))
+      ->capture_default_str();
+  paper->add_option("--ml-inflate-held", ml_inflate_held,
+                    "ml, diff drive with the heading noise's scale: the same C, on K_w's sigma with the "
+                    "scale held (--ml-inflate 0 turns both off)")
       ->check(CLI::Range(0.0, 10.0))
       ->capture_default_str();
   paper->add_option("--ml-inflate-cap", ml_inflate_cap, "ml: the inflation's cap, a factor on K (1..1000)")
@@ -304,6 +310,7 @@ int main(int argc, char** argv) {
     mlc.every = ml_every;
     mlc.reset_log = ml_reset;
     mlc.inflate = ml_inflate;
+    mlc.inflate_held = ml_inflate_held;
     mlc.max_inflate_log = std::log(ml_inflate_cap);
     mlc.discount = !ml_no_discount;
     mlc.reset_keep = ml_reset_keep;

@@ -498,11 +498,12 @@ class KMaxLikelihood {
     // 0.88x / 0.81x the truth at 30 m on the circle (100 runs), against 1.018x / 0.980x with
     // this (docs/nonsystematic.md "K_w and delta_d: the heading noise's scale estimated").
     const bool held = headingScaleOn();
+    const S factor = held ? cfg_.inflate_held : cfg_.inflate;
     const PMat ci = ok && !held ? inverseOf(llt) : PMat::Zero();
     for (int i = 0; i < M; ++i) {
       const S var = held ? (jp(i, i) > S(0) ? S(1) / jp(i, i) : S(0)) : ci(i, i);
       const S sig = ok && var > S(0) ? std::sqrt(var) : cfg_.max_inflate_log;
-      const S up = std::min(cfg_.inflate * sig - cfg_.inflate_offset, cfg_.max_inflate_log);
+      const S up = std::min(factor * sig - cfg_.inflate_offset, cfg_.max_inflate_log);
       kf_[i] = up > S(0) ? k_[i] * std::exp(up) : k_[i];
     }
   }
