@@ -55,7 +55,8 @@ class KMaxLikelihood {
   /// noise), and a delta_d the AKF has not learnt (a circle) must not bias K_w. Index kC holds
   /// c = 1 / delta_d^2 as the noise sees it, in the same log parametrisation as K; the AKF
   /// keeps predicting with its own delta_d (c_f = 1 / delta_d^2 from its state), and c's prior
-  /// is the AKF's own knowledge of delta_d (log c ~ N(log c_f, 4 P_dd / delta_d^2)).
+  /// is the AKF's own knowledge of delta_d (log c ~ N(log c_f, 4 P_dd / delta_d^2)). While
+  /// the AKF predicts with an inflated K, c is held at c_f (step()).
   static constexpr bool kHeadingScale = std::is_same_v<Drive, DiffDrive<S>>;
   static constexpr int P = M + (kHeadingScale ? 1 : 0);  ///< the parameters of Q estimated
   static constexpr int kC = M;                            ///< c's index (kHeadingScale)
@@ -338,8 +339,7 @@ class KMaxLikelihood {
       // carried down from K_f with K's (the cross term, log K_f - log K up to log 30) and
       // wandered, and the AKF's delta_R, delta_L suffered from below; left out of J instead,
       // the information on K_w alone from that stretch (read at the AKF's delta_d) held K_w
-      // low: 0.92x (docs/nonsystematic.md "K_w and delta_d: the heading noise's scale
-      // estimated").
+      // low: 0.92x (docs/nonsystematic.md "c held while K_f is inflated").
       if (hs && inflated()) {
         for (int i = 0; i < M; ++i) jp(i, kC) = jp(kC, i) = S(0);
         g_t[kC] = S(0);
