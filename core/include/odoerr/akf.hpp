@@ -267,10 +267,10 @@ class Akf {
   /// paper's once the cast was inlined into it; a call per beam cost the Cortex-M4F about
   /// 1,700 instructions a cycle in the one and 360 in the other (docs/performance.md).
   template <typename MapT, int MaxBeams>
-  ODOERR_ALWAYS_INLINE static Status expectedRange(const MapT& map,
-                              const LaserGeometry<S, MaxBeams>& laser, S x, S y, S c, S sn,
-                              int i, S min_cos_incidence, S* range, Eigen::Matrix<S, 1, 3>* h,
-                              BeamContext<S>* geo = nullptr, const RayShift<S>* shift = nullptr);
+  ODOERR_ALWAYS_INLINE static Status expectedRange(const MapT& map, const LaserGeometry<S, MaxBeams>& laser, S x,
+                                                   S y, S c, S sn, int i, S min_cos_incidence, S* range,
+                                                   Eigen::Matrix<S, 1, 3>* h, BeamContext<S>* geo = nullptr,
+                                                   const RayShift<S>* shift = nullptr);
 
   /// Convenience form of expectedRange taking a pose and an incidence limit in radians.
   template <typename MapT, int MaxBeams>
@@ -400,8 +400,8 @@ class Akf {
   /// Predicted range of beam i at the current state (heading cos/sin given) and the first
   /// kHCols entries of its row of H.
   template <typename MapT, int MaxBeams>
-  ODOERR_ALWAYS_INLINE Status predictBeam(const MapT& map, const LaserGeometry<S, MaxBeams>& laser,
-                     int i, S c, S sn, S* predicted, S* hf) const {
+  ODOERR_ALWAYS_INLINE Status predictBeam(const MapT& map, const LaserGeometry<S, MaxBeams>& laser, int i, S c,
+                                          S sn, S* predicted, S* hf) const {
     Eigen::Matrix<S, 1, 3> h;
     if constexpr (Model::kHasMeasurementEffects) {
       BeamContext<S> geo;

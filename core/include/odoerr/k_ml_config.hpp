@@ -72,15 +72,14 @@ struct KMlConfig {
   /// noise K_w (|dR| + |dL|) / (d delta_d)^2 sees it, with the AKF's knowledge of delta_d as
   /// its prior (KMaxLikelihood::kHeadingScale): the translation noise and the heading noise
   /// then tell K_w and delta_d apart, and deflate does not apply. The AKF keeps predicting
-  /// with its own delta_d; c's score is carried to c along the Gauss-Newton line, K_f's
-  /// inflation follows K's uncertainty with c held, and while K_f is inflated c is held at
-  /// the AKF's own (its information still gathers), and the inflation's factor is
-  /// inflate_held. Measured (100 runs, 30 m, below / above): K_w on the circle 0.972x /
-  /// 0.981x the truth at 13.8 / 12.8 % (1.09x / 1.01x its joint bound; K_w alone: 0.894x /
-  /// 0.872x at 27.4 / 16.5 %), on the eight 0.997x / 0.998x at 4.4 / 4.5 % (1.10x / 1.13x);
-  /// delta_R, delta_L, delta_d no worse than with the paper's OF. false: K_w alone, read
-  /// through the AKF's delta_d
-  /// (docs/nonsystematic.md "K_w and delta_d: the heading noise's scale estimated").
+  /// with its own delta_d; c's score is carried to c along the Gauss-Newton line. K_f's
+  /// inflation follows K's uncertainty with c held, by the factor inflate_held, and while
+  /// K_f is inflated c is held at the AKF's own (its information still gathers). Measured
+  /// (100 runs, 30 m, below / above): K_w on the circle 0.972x / 0.981x the truth at 13.8 /
+  /// 12.8 % (1.09x / 1.01x its joint bound; K_w alone: 0.894x / 0.872x at 27.4 / 16.5 %), on
+  /// the eight 0.997x / 0.998x at 4.4 / 4.5 % (1.10x / 1.13x); delta_R, delta_L, delta_d no
+  /// worse than with the paper's OF. false: K_w alone, read through the AKF's delta_d
+  /// (docs/nonsystematic.md "c held while K_f is inflated").
   bool heading_scale = true;
   /// The smallest variance of c's prior (log c), for a delta_d the AKF holds as known.
   S min_heading_scale_var = S(1e-6);
