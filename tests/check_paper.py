@@ -29,6 +29,7 @@ def main():
     ap.add_argument("--acceptance", action="store_true")
     ap.add_argument("--k-acceptance", action="store_true", help="issue 15's acceptance for K")
     ap.add_argument("--plots", action="store_true", help="also require the PNG figures")
+    ap.add_argument("--max-pos-err", type=float, help="every run's position error at its end within this (m): none lost")
     a = ap.parse_args()
     with open(os.path.join(a.dir, "summary.json")) as f:
         s = json.load(f)
@@ -36,7 +37,7 @@ def main():
     keys = {"drive", "runs", "of", "path", "radius_m", "wall_time_s", "bound", "cases"}
     check(set(s) == (keys | {"ml"} if s.get("of") == "ml" else keys), "top-level keys")
     if s.get("of") == "ml":
-        check(set(s["ml"]) == {"every", "reset_log", "inflate", "inflate_held", "inflate_cap", "form", "discount",
+        check(set(s["ml"]) == {"every", "reset_log", "inflate", "inflate_held", "inflate_cap", "start_inflate_cap", "form", "discount",
                                 "discount_above", "reset_keep", "shift", "deflate", "heading_scale"}
               and s["ml"]["form"] in ("pose", "scan", "beam") and s["ml"]["shift"] in ("scale", "line"),
               "ml settings")
@@ -75,6 +76,12 @@ def main():
     for ln in lines[1:]:
         cells = ln.split(",")
         check(len(cells) == len(head) and all(math.isfinite(float(x)) for x in cells[3:]), "runs CSV row")
+    if a.max_pos_err is not None:
+        ip = head.index("pos_err_m")
+        for ln in lines[1:]:
+            cells = ln.split(",")
+            check(float(cells[ip]) <= a.max_pos_err,
+                  f"[{cells[0]}] seed {cells[2]}: position error {float(cells[ip]):.3f} m (at most {a.max_pos_err} m)")
     for c in s["cases"]:
         # the summary's mean at 30 m is the mean of the runs' last values
         rows = [ln.split(",") for ln in lines[1:] if ln.startswith(c["init"] + ",")]

@@ -127,7 +127,8 @@ long allocationsInMlCycles(KMlForm form) {
   } else {
     EXPECT_EQ(ml.ml().counters().scans, 200u) << "the cycles must really fuse scans";
   }
-  EXPECT_EQ(ml.ml().counters().steps + ml.ml().counters().skipped, 20u) << "a K step every 10 cycles";
+  EXPECT_EQ(ml.ml().counters().steps + ml.ml().counters().skipped, 200u / unsigned(mc.every))
+      << "a K step every " << mc.every << " cycles";
   return g_allocs.load();
 }
 

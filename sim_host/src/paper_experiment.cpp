@@ -208,6 +208,7 @@ std::string summaryJson(const PaperResult& r) {
                {"inflate", r.ml.inflate},
                {"inflate_held", r.ml.inflate_held},
                {"inflate_cap", std::round(std::exp(r.ml.max_inflate_log) * 1000.0) / 1000.0},
+               {"start_inflate_cap", std::round(std::exp(r.ml.max_start_inflate_log) * 1000.0) / 1000.0},
                {"form", toString(r.ml.form)},
                {"discount", r.ml.discount},
                {"discount_above", r.ml.discount_above},

@@ -164,7 +164,7 @@ int main(int argc, char** argv) {
   std::string pose_term = "expected";
   int window = 1;
   std::string of_kind = "paper";
-  int ml_every = 10;
+  int ml_every = KMlConfig<double>{}.every;
   std::string path = "circle";
   double radius = 0;
   double ml_reset = KMlConfig<double>{}.reset_log;
@@ -178,6 +178,7 @@ int main(int argc, char** argv) {
   double ml_reset_keep = KMlConfig<double>{}.reset_keep;
   double ml_discount_above = KMlConfig<double>{}.discount_above;
   double ml_inflate_cap = std::round(std::exp(KMlConfig<double>{}.max_inflate_log));
+  double ml_start_inflate_cap = std::round(std::exp(KMlConfig<double>{}.max_start_inflate_log));
   paper->add_option("--drive", drive, "sync or diff")->check(CLI::IsMember({"sync", "diff"}));
   paper->add_option("--runs", runs, "Monte Carlo runs per start (> 0)")
       ->check(CLI::PositiveNumber);
@@ -200,7 +201,7 @@ int main(int argc, char** argv) {
                     "the circle's radius or the eight's lobe radius in m (default 5 or 2; the 5 m circle "
                     "touches the walls' midpoints)")
       ->check(CLI::Range(0.5, 5.0));
-  paper->add_option("--ml-every", ml_every, "ml: cycles between K steps (1..100)")->check(CLI::Range(1, 100));
+  paper->add_option("--ml-every", ml_every, "ml: cycles between K steps (1..100)")->capture_default_str()->check(CLI::Range(1, 100));
   paper->add_option("--ml-reset", ml_reset,
                     "ml: restart the information and sensitivities when log K has moved this far (0: never)")
       ->check(CLI::Range(0.0, 10.0))
@@ -217,6 +218,11 @@ int main(int argc, char** argv) {
   paper->add_option("--ml-inflate-cap", ml_inflate_cap, "ml: the inflation's cap, a factor on K (1..1000)")
       ->check(CLI::Range(1.0, 1000.0))
       ->capture_default_str();
+  paper->add_option("--ml-start-inflate-cap", ml_start_inflate_cap,
+                    "ml: the inflation's cap before the first K step, a factor on K (1..1000; 30 lost the pose "
+                    "of a figure-eight from above)")
+      ->capture_default_str()
+      ->check(CLI::Range(1.0, 1000.0));
   paper->add_flag("--ml-no-discount", ml_no_discount,
                   "ml: keep what the AKF knew of the systematic parameters when the K it predicts with "
                   "rises (by default it is discounted by the same factor, up to the prior)");
@@ -312,6 +318,7 @@ int main(int argc, char** argv) {
     mlc.inflate = ml_inflate;
     mlc.inflate_held = ml_inflate_held;
     mlc.max_inflate_log = std::log(ml_inflate_cap);
+    mlc.max_start_inflate_log = std::log(ml_start_inflate_cap);
     mlc.discount = !ml_no_discount;
     mlc.reset_keep = ml_reset_keep;
     mlc.discount_above = ml_discount_above;

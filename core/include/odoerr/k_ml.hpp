@@ -89,6 +89,7 @@ class KMaxLikelihood {
     cycles_ = 0;
     taken_ = 0;
     updateFilterK();
+    for (int i = 0; i < M; ++i) kf_[i] = std::min(kf_[i], k_[i] * std::exp(cfg_.max_start_inflate_log));
     overstated_ = S(1);
     kf_min_ = filterK();
   }
