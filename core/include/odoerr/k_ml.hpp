@@ -89,7 +89,6 @@ class KMaxLikelihood {
     cycles_ = 0;
     taken_ = 0;
     updateFilterK();
-    for (int i = 0; i < M; ++i) kf_[i] = std::min(kf_[i], k_[i] * std::exp(cfg_.max_start_inflate_log));
     overstated_ = S(1);
     kf_min_ = filterK();
   }
@@ -503,8 +502,11 @@ class KMaxLikelihood {
     const PMat ci = ok && !held ? inverseOf(llt) : PMat::Zero();
     for (int i = 0; i < M; ++i) {
       const S var = held ? (jp(i, i) > S(0) ? S(1) / jp(i, i) : S(0)) : ci(i, i);
-      const S sig = ok && var > S(0) ? std::sqrt(var) : cfg_.max_inflate_log;
-      const S up = std::min(factor * sig - cfg_.inflate_offset, cfg_.max_inflate_log);
+      // While J tells nothing of K's uncertainty (before the first step), the start's cap too.
+      const bool known = ok && var > S(0);
+      const S sig = known ? std::sqrt(var) : cfg_.max_inflate_log;
+      const S cap = known ? cfg_.max_inflate_log : std::min(cfg_.max_start_inflate_log, cfg_.max_inflate_log);
+      const S up = std::min(factor * sig - cfg_.inflate_offset, cap);
       kf_[i] = up > S(0) ? k_[i] * std::exp(up) : k_[i];
     }
   }

@@ -58,7 +58,7 @@ struct KMlConfig {
   /// log 30: 100 (the paper's starting factor) let one run of 400 lose the pose from above
   /// on the figure-eight (Q 10^4 times too large at the start); 30 loses none (measured).
   S max_inflate_log = S(3.4011974);
-  /// The inflation's cap before the first step, when nothing is known of K's uncertainty:
+  /// The inflation's cap while J tells nothing of K's uncertainty (before the first step):
   /// log 10. With max_inflate_log (30) there, one run of 400 of the figure-eight from 100x
   /// above (seed 113) predicted its first 0.1 m with K_w 3000x the truth and turned its
   /// heading by pi/2 for good (the square room's symmetry); 10 loses none of 400 on either
