@@ -13,9 +13,13 @@ for drive in sync diff; do
   ./build/host/tools/odoerr/odoerr paper --drive "$drive" --runs "$RUNS" --out "out/paper-$drive"
   ./build/host/tools/odoerr/odoerr paper --drive "$drive" --runs "$RUNS" --of ml --out "out/paper-$drive-ml"
 done
+# --paired: each quantity's end error, ml over the OF's run by run, with a 95 % interval
+# (needs 10 runs or more).
+paired=()
+if [ "$RUNS" -ge 10 ]; then paired=(--paired); fi
 for drive in sync diff; do
   echo
-  /usr/bin/python3 tools/report/paper_compare.py "out/paper-$drive" "out/paper-$drive-ml"
+  /usr/bin/python3 tools/report/paper_compare.py "out/paper-$drive" "out/paper-$drive-ml" "${paired[@]}"
 done
 echo
 echo "Results: out/paper-{sync,diff}/ (the paper's OF) and out/paper-{sync,diff}-ml/ (summary.json, paper_*.csv, fig*.png, pose_*.png)"
