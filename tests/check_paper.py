@@ -37,7 +37,7 @@ def main():
     keys = {"drive", "runs", "of", "path", "radius_m", "wall_time_s", "bound", "cases"}
     check(set(s) == (keys | {"ml"} if s.get("of") == "ml" else keys), "top-level keys")
     if s.get("of") == "ml":
-        check(set(s["ml"]) == {"every", "reset_log", "inflate", "inflate_held", "inflate_cap", "start_inflate_cap", "form", "discount",
+        check(set(s["ml"]) == {"every", "solve_iters", "reset_log", "inflate", "inflate_held", "inflate_cap", "start_inflate_cap", "form", "discount",
                                 "discount_above", "reset_keep", "shift", "deflate", "heading_scale"}
               and s["ml"]["form"] in ("pose", "scan", "beam") and s["ml"]["shift"] in ("scale", "line"),
               "ml settings")

@@ -40,6 +40,15 @@ def tape_with_cycles(src, dst, cycles, dry=False):
     open(dst, "wb").write(data)
 
 
+def tape_from_above(src, dst):
+    """The tape with K starting 100x above the truth instead of 100x below (k0 x 10^4)."""
+    data = bytearray(open(src, "rb").read())
+    for off in (32, 36):  # header fields k0[0], k0[1]
+        (k,) = struct.unpack_from("<f", data, off)
+        struct.pack_into("<f", data, off, k * 1e4)
+    open(dst, "wb").write(data)
+
+
 def cycle_cost(qemu, plugin, elf, tape, workdir, n1=1000, n2=2000):
     """Guest instructions of one cycle of `elf` on `tape`: (I(n2) - I(n1)) / (n2 - n1) minus
     the same difference of a dry run (the harness)."""
@@ -128,6 +137,7 @@ def main():
     ap.add_argument("--host-replay", required=True)
     ap.add_argument("--batch-elf", help="textbook batch EKF image of the same cycle (comparison)")
     ap.add_argument("--ml-elf", help="the same cycle with the ML estimator of K in the OF's place (core_replay_ml)")
+    ap.add_argument("--sync-tape", help="host tape of the synchronous drive: the paper's cycle and --ml-elf's on it too")
     ap.add_argument("--firmware-elf", help="the firmware application image (sizes, stack)")
     ap.add_argument("--hal-tape", help="HAL tape for the firmware image")
     ap.add_argument("--out", required=True)
@@ -168,6 +178,18 @@ def main():
         ml = None
         if a.ml_elf:
             ml, _ = cycle_cost(qemu, a.plugin, a.ml_elf, a.tape, os.path.join(tmp, "ml"), n1, n2)
+        sync = None
+        if a.sync_tape and a.ml_elf:
+            paper_s, _ = cycle_cost(qemu, a.plugin, a.elf, a.sync_tape, os.path.join(tmp, "sync"), n1, n2)
+            ml_s, _ = cycle_cost(qemu, a.plugin, a.ml_elf, a.sync_tape, os.path.join(tmp, "sync-ml"), n1, n2)
+            # From 100x above, the first 3 m (cycles 5-305, 30 K steps): the ML's falling steps
+            # iterate their solve there (KMlConfig::solve_iters).
+            above = os.path.join(tmp, "sync-above.bin")
+            tape_from_above(a.sync_tape, above)
+            ml_a, _ = cycle_cost(qemu, a.plugin, a.ml_elf, above, os.path.join(tmp, "sync-ml-above"), 5, 305)
+            sync = {"instructions_per_cycle": round(paper_s), "of_ml_instructions_per_cycle": round(ml_s),
+                    "of_ml_over_paper_of": round(ml_s / paper_s, 2),
+                    "of_ml_from_above_first_3_m_instructions_per_cycle": round(ml_a)}
         maps = [measure_map(qemu, a.plugin, a.nm_tool, spec, tmp) for spec in a.map]
         best = None
         for _ in range(5):
@@ -195,6 +217,8 @@ def main():
         # --of ml's estimator of K in the OF's place, the rest of the cycle the same (issue 15).
         "of_ml": {"image": os.path.basename(a.ml_elf), "instructions_per_cycle": round(ml),
                   "over_paper_of": round(ml / ipc, 2)} if ml else None,
+        # The same two images on the synchronous drive's tape (its ML step iterates from above).
+        "sync": sync,
         "instructions_whole_drive": counts[(cycles_total, False)],
         "cycles_whole_drive": cycles_total,
         "host_ns_per_cycle": round(best * 1e9 / cycles_total),

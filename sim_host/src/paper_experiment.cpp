@@ -204,6 +204,7 @@ std::string summaryJson(const PaperResult& r) {
   j["of"] = toString(r.of);
   if (r.of == OfKind::kMl) {
     j["ml"] = {{"every", r.ml.every},
+               {"solve_iters", r.ml.solve_iters},
                {"reset_log", r.ml.reset_log},
                {"inflate", r.ml.inflate},
                {"inflate_held", r.ml.inflate_held},

@@ -9,7 +9,6 @@
 #include <cmath>
 #include <chrono>
 #include <cstdio>
-#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -201,6 +200,12 @@ int main(int argc, char** argv) {
                     "the circle's radius or the eight's lobe radius in m (default 5 or 2; the 5 m circle "
                     "touches the walls' midpoints)")
       ->check(CLI::Range(0.5, 5.0));
+  int ml_solve_iters = KMlConfig<double>{}.solve_iters;
+  paper->add_option("--ml-solve-iters", ml_solve_iters,
+                    "ml, synchronous drive: iterations of each K step's solve (1: one Gauss-Newton step; "
+                    "1..20)")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 20));
   paper->add_option("--ml-every", ml_every, "ml: cycles between K steps (1..100)")->capture_default_str()->check(CLI::Range(1, 100));
   paper->add_option("--ml-reset", ml_reset,
                     "ml: restart the information and sensitivities when log K has moved this far (0: never)")
@@ -314,6 +319,7 @@ int main(int argc, char** argv) {
   if (paper->parsed()) {
     KMlConfig<double> mlc;
     mlc.every = ml_every;
+    mlc.solve_iters = ml_solve_iters;
     mlc.reset_log = ml_reset;
     mlc.inflate = ml_inflate;
     mlc.inflate_held = ml_inflate_held;

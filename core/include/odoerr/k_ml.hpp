@@ -315,8 +315,12 @@ class KMaxLikelihood {
     PVec dk = kf_;
     if constexpr (kHeadingScale) dk[kC] = S(1);  // c's sensitivities are in log c already
     const PMat info_t = dk.asDiagonal() * info_ * dk.asDiagonal();
-    PVec g_t = dk.asDiagonal() * g_;
-    if (cfg_.inflate > S(0) || hs) shiftScore(info_t, &g_t);
+    const PVec g_f = dk.asDiagonal() * g_;  // the score at K_f, in log K
+    const bool shift = cfg_.inflate > S(0) || hs;
+    PVec g_t = g_f;
+    const PVec h_f = h_;
+    if (shift) g_t = shiftScore(info_t, g_f, h_f, k_);
+    const PVec s0 = g_t;  // the carried score at K now (for the solve's further iterations)
     if constexpr (kHeadingScale) {
       // The prior's pull at log c now, less the last step's, which the data balanced there
       // (forgotten with J by lambda).
@@ -351,17 +355,38 @@ class KMaxLikelihood {
       ++counters_.skipped;
       return false;
     }
-    PVec step = llt.solve(g_t);
-    if (!step.allFinite()) {
-      ++counters_.skipped;
-      return false;
+    // The step solves r(d) = 0 for the move d in log K: r is the batch's score carried to
+    // K e^d (shiftScore) less J's pull back to K. The first iteration is the Gauss-Newton
+    // step; further ones (KMlConfig::solve_iters, synchronous drive) follow the
+    // variance-scale model's curvature with the same factor (a chord method). Where the
+    // carried score is the line they add nothing, and they stop once a move is below 1e-3.
+    PVec total = PVec::Zero();
+    PVec r = g_t;
+    const int iters = kHeadingScale ? 1 : cfg_.solve_iters;
+    bool down = false;  // the first iteration lowered every K
+    for (int it = 0; it < iters; ++it) {
+      PVec step = llt.solve(r);
+      if (!step.allFinite()) {
+        if (it == 0) {
+          ++counters_.skipped;
+          return false;
+        }
+        break;
+      }
+      const S big = step.cwiseAbs().maxCoeff();
+      if (big > cfg_.max_log_step) {
+        step *= cfg_.max_log_step / big;
+        if (it == 0) ++counters_.clipped;
+      }
+      total += step;
+      if (it == 0) down = step.maxCoeff() < S(0);
+      if (it + 1 == iters || !shift || !down || big < S(1e-3)) break;
+      // r(d) = g_t + (S(d) - S(0) + I d) - jp d: S the carried score, I d its line's part
+      PVec kk = k_;
+      for (int i = 0; i < active(); ++i) kk[i] *= std::exp(total[i]);
+      r = g_t + (shiftScore(info_t, g_f, h_f, kk) - s0 + info_t * total) - jp * total;
     }
-    const S big = step.cwiseAbs().maxCoeff();
-    if (big > cfg_.max_log_step) {
-      step *= cfg_.max_log_step / big;
-      ++counters_.clipped;
-    }
-    for (int i = 0; i < active(); ++i) k_[i] *= std::exp(step[i]);
+    for (int i = 0; i < active(); ++i) k_[i] *= std::exp(total[i]);
     ++counters_.steps;
     if (cfg_.reset_log > S(0)) {
       S moved = S(0);
@@ -395,19 +420,20 @@ class KMaxLikelihood {
   /// model's curvature overstates the rise (measured: K_rho 1.02x at 30 m with it alone).
   /// c (kHeadingScale) takes the line: the AKF never predicts with it, and log c_f - log c
   /// has either sign.
-  void shiftScore(const PMat& info_t, PVec* g_t) const {
+  /// g_f, h_f: the score and h at K_f; kk: the K where it is wanted (then c).
+  PVec shiftScore(const PMat& info_t, const PVec& g_f, const PVec& h_f, const PVec& kk) const {
     PVec dtheta = PVec::Zero();
-    for (int i = 0; i < active(); ++i) dtheta[i] = std::log(kf_[i] / k_[i]);
-    PVec line = *g_t + info_t * dtheta;
+    for (int i = 0; i < active(); ++i) dtheta[i] = std::log(kf_[i] / kk[i]);
+    PVec line = g_f + info_t * dtheta;
     if (cfg_.scale_shift) {
       for (int i = 0; i < M; ++i) {
-        const S h = kf_[i] * h_[i];
+        const S h = kf_[i] * h_f[i];
         if (h > S(0) && dtheta[i] > S(0)) {
-          line[i] = std::min(line[i], scaleShiftedScore((*g_t)[i], h, std::min(info_t(i, i) / h, S(1)), dtheta[i]));
+          line[i] = std::min(line[i], scaleShiftedScore(g_f[i], h, std::min(info_t(i, i) / h, S(1)), dtheta[i]));
         }
       }
     }
-    *g_t = line;
+    return line;
   }
 
   /// The variance delta_d's uncertainty adds to log K_w (differential drive): the heading
