@@ -25,7 +25,8 @@ struct KMlConfig {
   /// the sync circle: K_rho 10.0 / 10.3 -> 9.1 / 9.0 %, E_theta from above 1.027x -> 1.010x
   /// the paper OF's; docs/nonsystematic.md) but is not the default yet: K_w alone's sigma
   /// (heading_scale off) came out 0.56x its spread on the eight, and delta_rho's spread at
-  /// 10 m 1.10x the paper OF's. 1 wandered (K_rho 21.8 %).
+  /// 10 m 1.10x the paper OF's. 1 wandered (K_rho 21.8 %). With the iterated solve
+  /// (solve_iters, session 14) 5 put delta_rho from below at 1.22x the OF's (300 runs).
   int every = 10;
   S max_log_step = S(0.5);        ///< |delta log K| per iteration of a step's solve at most
   /// Iterations of each K step's solve on the synchronous drive when the step lowers every
