@@ -35,6 +35,7 @@ def main():
         s = json.load(f)
     names = SYNC if a.drive == "sync" else DIFF
     keys = {"drive", "runs", "of", "path", "radius_m", "wall_time_s", "bound", "cases"}
+    check(isinstance(s.get("wall_time_s"), (int, float)) and s["wall_time_s"] >= 0, "wall_time_s a duration")
     check(set(s) == (keys | {"ml"} if s.get("of") == "ml" else keys), "top-level keys")
     if s.get("of") == "ml":
         check(set(s["ml"]) == {"every", "solve_iters", "reset_log", "inflate", "inflate_held", "inflate_cap", "start_inflate_cap", "form", "discount",
@@ -126,7 +127,9 @@ def main():
             for n in names[-2:] if a.drive == "sync" else names[-1:]:
                 lo, hi = ranges[n]
                 check(lo <= p[n]["bound_pct"] <= hi, tag + f"{n} bound {p[n]['bound_pct']:.2f} % (oracle range {lo}-{hi} %)")
-        check(s["wall_time_s"] < 30, f"wall time {s['wall_time_s']} s (< 30 s per drive)")
+        # Speed is reported, not asserted (a timed check fails on a loaded machine, and
+        # benchmarks measure it: docs/performance.md).
+        print(f"wall time {s['wall_time_s']} s for {a.runs} runs x 2 starts")
     if a.k_acceptance:
         for c in s["cases"]:
             p = c["checkpoints"][-1]["params"]
