@@ -6,7 +6,8 @@
 Two `odoerr paper --out` directories are written by hand (summary.json and runs_sync.csv)
 with known end errors: the other estimator's errors the paper's times a factor, plus a
 little independent noise. Checked: 1.3x is flagged worse (exit 1) and its ratio printed;
-0.8x and the same errors pass (exit 0); a seed missing, a malformed row and too few runs are
+0.8x and the same errors pass (exit 0); a seed missing, a malformed row, a column missing
+and too few runs are
 refused (exit 2) with the file named.
 """
 import json
@@ -20,7 +21,7 @@ import numpy as np
 TRUTH = {"delta_rho": 1.1, "E_theta": 0.0174533, "K_rho": 1e-3, "K_theta": 3e-4}
 
 
-def write(d, errs, runs, of, drop_seed=None, bad_row=False):
+def write(d, errs, runs, of, drop_seed=None, bad_row=False, drop_col=None):
     os.makedirs(d, exist_ok=True)
     params = {n: {"mean": t, "true": t, "accuracy_pct": 1.0, "sigma_ratio": 1.0, "bound_pct": 1.0,
                   "bound_pct_joint": 1.0} for n, t in TRUTH.items()}
@@ -29,7 +30,7 @@ def write(d, errs, runs, of, drop_seed=None, bad_row=False):
          "cases": [{"init": "small", "checkpoints": [cp]}, {"init": "large", "checkpoints": [cp]}]}
     with open(os.path.join(d, "summary.json"), "w") as f:
         json.dump(s, f)
-    cols = list(TRUTH) + ["pos_err_m", "heading_err_rad"]
+    cols = [c for c in list(TRUTH) + ["pos_err_m", "heading_err_rad"] if c != drop_col]
     with open(os.path.join(d, "runs_sync.csv"), "w") as f:
         f.write("init,run,seed," + ",".join(cols) + "\n")
         for init in ("small", "large"):
@@ -80,6 +81,9 @@ def main():
     write(os.path.join(work, "bad"), base, runs, "ml", bad_row=True)
     rc, out, err = run(tool, os.path.join(work, "paper"), os.path.join(work, "bad"), "--paired")
     expect(rc == 2 and "runs_sync.csv:" in err and "malformed row" in err, f"a malformed row: exit {rc}, {err.strip()}")
+    write(os.path.join(work, "nocol"), base, runs, "ml", drop_col="heading_err_rad")
+    rc, out, err = run(tool, os.path.join(work, "paper"), os.path.join(work, "nocol"), "--paired")
+    expect(rc == 2 and "no column 'heading_err_rad'" in err, f"a column missing: exit {rc}, {err.strip()}")
     few = {c: e[:5] for c, e in base.items()}
     write(os.path.join(work, "few_a"), few, 5, "paper")
     write(os.path.join(work, "few_b"), few, 5, "ml")

@@ -26,6 +26,8 @@ import json
 import os
 import sys
 
+import numpy as np
+
 
 def fail(msg):
     print(f"paper_compare: {msg}", file=sys.stderr)
@@ -69,7 +71,7 @@ def pct(v):
     return f"{v:.2f} %" if isinstance(v, (int, float)) else "-"
 
 
-def load_runs(d, summary, path):
+def load_runs(d, summary):
     """runs_<drive>.csv as {init: {seed: {column: value}}}; a malformed row names its line."""
     fn = os.path.join(d, f"runs_{summary['drive']}.csv")
     out = {}
@@ -89,18 +91,16 @@ def load_runs(d, summary, path):
 
 def rms_ratio(err_a, err_b, axis=-1):
     """RMS of err_b over RMS of err_a (the bootstrap's statistic, vectorised along axis)."""
-    import numpy as np
     return np.sqrt(np.mean(err_b ** 2, axis=axis) / np.mean(err_a ** 2, axis=axis))
 
 
-def paired(base, base_dir, base_path, other, other_dir, other_path):
+def paired(base, base_dir, base_path, other, other_dir):
     """Per start, the other's end error over the paper's with a 95 % paired bootstrap
     interval, for each systematic parameter (about the truth) and the pose. Returns the
     quantities whose interval lies wholly above 1."""
-    import numpy as np
-    from scipy import stats
-    runs_a, fn_a = load_runs(base_dir, base, base_path)
-    runs_b, fn_b = load_runs(other_dir, other, other_path)
+    from scipy import stats  # only here: the side-by-side table needs no scipy
+    runs_a, fn_a = load_runs(base_dir, base)
+    runs_b, fn_b = load_runs(other_dir, other)
     worse = []
     print("  paired, run by run (same seeds): end error's RMS, other / paper, [95 % paired bootstrap]")
     for init in ("small", "large"):
@@ -167,7 +167,7 @@ def main():
         if pa and pb:
             print(f"    {'pose RMS':10} {pa['position_m'] * 100:21.2f} cm {pb['position_m'] * 100:21.2f} cm")
     if a.paired or a.no_worse:
-        worse = paired(base, a.paper_dir, base_path, other, a.other_dir, other_path)
+        worse = paired(base, a.paper_dir, base_path, other, a.other_dir)
         if a.no_worse:
             if worse:
                 print(f"significantly worse than '{names[0]}': " + "; ".join(worse))
