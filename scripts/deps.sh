@@ -10,7 +10,7 @@ PACKAGES=(
   libboost-dev              # Boost.Math (header-only): exact chi-square quantiles
   libgtest-dev libbenchmark-dev     # tests, benchmarks
   python3 python3-matplotlib python3-numpy python3-jinja2  # figures, the report
-  python3-scipy             # odoerr map import (tools/map: ndimage, cKDTree)
+  python3-scipy             # odoerr map import (tools/map: ndimage, cKDTree); paper_compare.py --paired
 )
 # Target build and emulation (the test command): bash scripts/deps.sh --target
 if [ "${1:-}" = "--target" ]; then
