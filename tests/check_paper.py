@@ -2,7 +2,7 @@
 """Checks an `odoerr paper` output directory: summary.json has exactly the documented shape,
 and (with --acceptance) the 30 m figures lie in the ranges of the issue's acceptance; with
 --k-acceptance, K meets issue 15's acceptance at 30 m from both starts: mean within 5 % of the
-truth, accuracy within 1.5x bound_pct (K_w: bound_pct_joint, delta unknown), reported sigma
+truth, accuracy within 1.5x bound_pct (K's with delta unknown, as the AKF estimates it), reported sigma
 within 1.5x of the spread."""
 import argparse
 import json
@@ -54,8 +54,8 @@ def main():
             check(set(cp) == {"distance_m", "params", "pose_rms"}, "checkpoint keys")
             check(sorted(cp["params"]) == sorted(names), "parameter names")
             for v in cp["params"].values():
-                check(set(v) == {"true", "mean", "accuracy_pct", "bound_pct", "bound_pct_joint", "rmse", "sigma_mean",
-                                    "sigma_ratio"},
+                check(set(v) == {"true", "mean", "accuracy_pct", "bound_pct", "bound_pct_joint", "bound_pct_known", "rmse",
+                                    "sigma_mean", "sigma_ratio"},
                       "parameter keys")
                 check(all(math.isfinite(x) for k, x in v.items() if k != "sigma_ratio"), "finite values")
                 # sigma honesty: mean reported sigma over the spread across runs (null: no spread)
@@ -64,7 +64,7 @@ def main():
                     check(v["sigma_ratio"] is not None and abs(v["sigma_ratio"] - v["sigma_mean"] / sd) <= 1e-6 * v["sigma_ratio"],
                           "sigma_ratio = sigma_mean / spread")
                 check(v["sigma_mean"] >= 0, "sigma_mean not negative")
-                check(v["bound_pct"] > 0 and v["bound_pct_joint"] > 0, "positive bounds")
+                check(v["bound_pct"] > 0 and v["bound_pct_joint"] > 0 and v["bound_pct_known"] > 0, "positive bounds")
             check(set(cp["pose_rms"]) == {"position_m", "orientation_rad"}, "pose_rms keys")
     csv = os.path.join(a.dir, f"paper_{a.drive}.csv")
     check(os.path.getsize(csv) > 1000, "CSV written")
@@ -123,10 +123,14 @@ def main():
             for n in names[:-2] if a.drive == "sync" else names[:-1]:
                 q = p[n]["accuracy_pct"] / p[n]["bound_pct"]
                 check(0.7 <= q <= 1.5, tag + f"{n} accuracy {q:.2f}x its bound {p[n]['bound_pct']:.3g} %")
+            # The oracle held delta known: bound_pct_known. bound_pct (delta unknown, as the
+            # AKF estimates it) is never below it.
             ranges = {"K_rho": (6, 11), "K_theta": (3, 6), "K_w": (2, 4.5)}
             for n in names[-2:] if a.drive == "sync" else names[-1:]:
                 lo, hi = ranges[n]
-                check(lo <= p[n]["bound_pct"] <= hi, tag + f"{n} bound {p[n]['bound_pct']:.2f} % (oracle range {lo}-{hi} %)")
+                bk = p[n]["bound_pct_known"]
+                check(lo <= bk <= hi, tag + f"{n} bound with delta known {bk:.2f} % (oracle range {lo}-{hi} %)")
+                check(p[n]["bound_pct"] >= 0.99 * bk, tag + f"{n} bound {p[n]['bound_pct']:.2f} % not below {bk:.2f} %")
         # Speed is reported, not asserted (a timed check fails on a loaded machine, and
         # benchmarks measure it: docs/performance.md).
         print(f"wall time {s['wall_time_s']} s for {a.runs} runs x 2 starts")
@@ -137,10 +141,10 @@ def main():
             for n in names[-2:] if a.drive == "sync" else names[-1:]:
                 v = p[n]
                 r = v["mean"] / v["true"]
-                # K_w (diff): the joint bound, delta unknown as the AKF estimates it; the
-                # bound with delta known leaves out the K_w-delta_d coupling of the heading
-                # noise (docs/nonsystematic.md, "K with delta unknown").
-                bound = v["bound_pct_joint"] if a.drive == "diff" else v["bound_pct"]
+                # K's bound_pct holds delta unknown, as the AKF estimates it; the bound with
+                # delta known leaves out K_w's coupling to delta_d through the heading noise
+                # (docs/nonsystematic.md, "K with delta unknown").
+                bound = v["bound_pct"]
                 q = v["accuracy_pct"] / bound
                 check(abs(r - 1) <= 0.05, tag + f"{n} mean {r:.3f}x the truth (within 5 %)")
                 check(q <= 1.5, tag + f"{n} accuracy {v['accuracy_pct']:.2f} % = {q:.2f}x its bound {bound:.2f} % (within 1.5x)")

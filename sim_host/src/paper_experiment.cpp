@@ -146,11 +146,18 @@ void addBound(const PaperOptions& opt, PaperResult* res) {
   const std::size_t params = res->cases.front().names.size();
   res->bound_pct.assign(records, std::vector<double>(params, std::nan("")));
   res->bound_pct_joint = res->bound_pct;
+  res->bound_pct_known = res->bound_pct;
   auto row = [&](std::size_t r, const BoundPoint& bp) {
     auto pct = [](const BoundValue& v) { return v.bound_pct >= 0 ? v.bound_pct : std::nan(""); };
+    // bound_pct: delta's with K known (the information the AKF's mean model carries), K's
+    // with delta unknown, as the AKF estimates it (the K block of the joint information's
+    // inverse). bound_pct_known: each with the others known.
     std::size_t q = 0;
     for (const auto& v : bp.systematic) res->bound_pct[r][q++] = pct(v);
-    for (const auto& v : bp.nonsystematic) res->bound_pct[r][q++] = pct(v);
+    for (const auto& v : bp.nonsystematic_delta_unknown) res->bound_pct[r][q++] = pct(v);
+    q = 0;
+    for (const auto& v : bp.systematic) res->bound_pct_known[r][q++] = pct(v);
+    for (const auto& v : bp.nonsystematic) res->bound_pct_known[r][q++] = pct(v);
     q = 0;
     for (const auto& v : bp.systematic_joint) res->bound_pct_joint[r][q++] = pct(v);
     for (const auto& v : bp.nonsystematic_delta_unknown) res->bound_pct_joint[r][q++] = pct(v);
@@ -238,6 +245,7 @@ std::string summaryJson(const PaperResult& r) {
         const Stat& s = c.params[i][q];
         const double b = r.bound_pct.empty() ? std::nan("") : r.bound_pct[i][q];
         const double bj = r.bound_pct_joint.empty() ? std::nan("") : r.bound_pct_joint[i][q];
+        const double bk = r.bound_pct_known.empty() ? std::nan("") : r.bound_pct_known[i][q];
         // Sigma honesty: the mean reported sigma over the spread (population std) across
         // runs; null when the spread is zero (one run) or undefined.
         const double spread = s.accuracy_pct / 100.0 * std::abs(s.mean);
@@ -247,6 +255,7 @@ std::string summaryJson(const PaperResult& r) {
                               {"accuracy_pct", s.accuracy_pct},
                               {"bound_pct", std::isfinite(b) ? json(b) : json(nullptr)},
                               {"bound_pct_joint", std::isfinite(bj) ? json(bj) : json(nullptr)},
+                              {"bound_pct_known", std::isfinite(bk) ? json(bk) : json(nullptr)},
                               {"rmse", s.rmse},
                               {"sigma_mean", s.sigma_mean},
                               {"sigma_ratio", std::isfinite(ratio) ? json(ratio) : json(nullptr)}};

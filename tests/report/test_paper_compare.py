@@ -24,7 +24,7 @@ TRUTH = {"delta_rho": 1.1, "E_theta": 0.0174533, "K_rho": 1e-3, "K_theta": 3e-4}
 def write(d, errs, runs, of, drop_seed=None, bad_row=False, drop_col=None):
     os.makedirs(d, exist_ok=True)
     params = {n: {"mean": t, "true": t, "accuracy_pct": 1.0, "sigma_ratio": 1.0, "bound_pct": 1.0,
-                  "bound_pct_joint": 1.0} for n, t in TRUTH.items()}
+                  "bound_pct_known": 1.0} for n, t in TRUTH.items()}
     cp = {"distance_m": 30.0, "params": params, "pose_rms": {"position_m": 0.004, "orientation_rad": 0.001}}
     s = {"drive": "sync", "runs": runs, "of": of, "path": "circle",
          "cases": [{"init": "small", "checkpoints": [cp]}, {"init": "large", "checkpoints": [cp]}]}

@@ -6,8 +6,9 @@ Usage: paper_compare.py PAPER_DIR OTHER_DIR [--at METRES]
 Each directory is an `odoerr paper --out` directory (summary.json). Prints, for each
 parameter and each start (K 100x below / above the truth), the mean over the truth, the
 accuracy (100 std / mean, %), sigma's ratio to the spread, and the Cramer-Rao bounds (%):
-`bound` with the systematic parameters known, `joint` with them unknown (K_w's differs on
-the circle, docs/nonsystematic.md), at the last checkpoint (or --at).
+`bound` (summary.json's bound_pct: K's with the systematic parameters unknown, as the AKF
+estimates them) and `known` (bound_pct_known: K's with them known; K_w's differs on the
+circle, docs/nonsystematic.md), at the last checkpoint (or --at).
 
 --paired adds, run by run on the same drives (runs_<drive>.csv, paired by start and seed),
 the end error of each systematic parameter (RMS about the truth) and of the pose (position
@@ -158,11 +159,11 @@ def main():
         cp_a = checkpoint(base, base_path, init, a.at)
         cp_b = checkpoint(other, other_path, init, a.at)
         print(f"  {label}, at {cp_a['distance_m']:g} m:")
-        print(f"    {'':10} {names[0]:>24} {names[1]:>24} {'bound':>8} {'joint':>8}")
+        print(f"    {'':10} {names[0]:>24} {names[1]:>24} {'bound':>8} {'known':>8}")
         for name, p in cp_a["params"].items():
             q = cp_b["params"].get(name)
             print(f"    {name:10} {cell(p):>24} {cell(q):>24} {pct(p.get('bound_pct')):>8} "
-                  f"{pct(p.get('bound_pct_joint')):>8}")
+                  f"{pct(p.get('bound_pct_known')):>8}")
         pa, pb = cp_a.get("pose_rms", {}), cp_b.get("pose_rms", {})
         if pa and pb:
             print(f"    {'pose RMS':10} {pa['position_m'] * 100:21.2f} cm {pb['position_m'] * 100:21.2f} cm")

@@ -57,11 +57,16 @@ struct PaperResult {
   std::vector<CaseResult> cases;  ///< small, large
   /// The Cramér-Rao bound (odoerr bound) on the experiment's nominal drive (run 0's truth
   /// path), in %, at every record of the cases ([record][param], systematic then
-  /// non-systematic; NaN where undefined, e.g. at distance 0), and its computing time.
+  /// non-systematic; NaN where undefined, e.g. at distance 0), and its computing time:
+  /// delta's with K known (odoerr bound's systematic: what the AKF's mean model can reach),
+  /// K's with delta unknown (nonsystematic_delta_unknown), as the AKF estimates it.
   std::vector<std::vector<double>> bound_pct;
-  /// The same with K and delta estimated jointly (odoerr bound's nonsystematic_delta_unknown
-  /// and systematic_joint).
+  /// Both from the joint information of (K, delta) (systematic_joint and
+  /// nonsystematic_delta_unknown); delta's takes in what Q's dependence on delta tells,
+  /// which the AKF does not use.
   std::vector<std::vector<double>> bound_pct_joint;
+  /// Each with the others known: delta's as bound_pct, K's with delta known (nonsystematic).
+  std::vector<std::vector<double>> bound_pct_known;
   double bound_time_s = 0;
 };
 
