@@ -317,6 +317,13 @@ class KMaxLikelihood {
     const PMat info_t = dk.asDiagonal() * info_ * dk.asDiagonal();
     const PVec g_f = dk.asDiagonal() * g_;  // the score at K_f, in log K
     const bool shift = cfg_.inflate > S(0) || hs;
+    // c held at c_f while K_f is inflated (below): held from here, so that the score carried
+    // to K has no move of c in it (K's line would otherwise take the cross term I_Kc times
+    // log c_f - log c, for a c this step then drops).
+    const bool hold_c = hs && inflated();
+    if constexpr (kHeadingScale) {
+      if (hold_c) k_[kC] = kf_[kC];
+    }
     PVec g_t = g_f;
     const PVec h_f = h_;
     if (shift) g_t = shiftScore(info_t, g_f, h_f, k_);
@@ -344,10 +351,9 @@ class KMaxLikelihood {
       // wandered, and the AKF's delta_R, delta_L suffered from below; left out of J instead,
       // the information on K_w alone from that stretch (read at the AKF's delta_d) held K_w
       // low: 0.92x (docs/nonsystematic.md "c held while K_f is inflated").
-      if (hs && inflated()) {
+      if (hold_c) {
         for (int i = 0; i < M; ++i) jp(i, kC) = jp(kC, i) = S(0);
         g_t[kC] = S(0);
-        k_[kC] = kf_[kC];
       }
     }
     Eigen::LLT<PMat> llt(jp);
