@@ -41,7 +41,9 @@ inline auto Akf<ModelT>::updateBeamCS(const MapT& map, const LaserGeometry<S, Ma
     n_act = statesWithVariance(act);
     int hcol[N];
     int n_h = 0;
-    for (int j = 0; j < N; ++j) pht[j] = S(0);
+    // Only the states with variance are read below (a held state's entries would be exact
+    // zeros, and the loops skip them); the pose's, for dtheta, whatever its variance.
+    for (int j = 0; j < 3; ++j) pht[j] = S(0);
     for (int a = 0; a < n_act; ++a) {
       if (act[a] < kHCols && hf[act[a]] != S(0)) hcol[n_h++] = act[a];
     }
@@ -89,17 +91,32 @@ inline auto Akf<ModelT>::updateBeamCS(const MapT& map, const LaserGeometry<S, Ma
   const S root = std::sqrt(inv_s);
   S g[N];
   S diag[N];
-#pragma GCC unroll 16
-  for (int j = 0; j < N; ++j) {
-    g[j] = pht[j] * root;
-    diag[j] = p_(j, j) - g[j] * g[j];
-    if (!(diag[j] > S(0)) && !heldState(j, pht[j])) {
-      ++counters_.bad_covariance;
-      return Status::kBadCovariance;
+  if constexpr (kSparse) {
+    // The states with variance only: a held state has pht 0, so g 0, its diagonal stays 0
+    // and its estimate does not move (the dense loops below, over every state, agree).
+    for (int a = 0; a < n_act; ++a) {
+      const int j = act[a];
+      g[j] = pht[j] * root;
+      diag[j] = p_(j, j) - g[j] * g[j];
+      if (!(diag[j] > S(0))) {
+        ++counters_.bad_covariance;
+        return Status::kBadCovariance;
+      }
     }
-  }
+    for (int a = 0; a < n_act; ++a) x_[act[a]] += pht[act[a]] * k_nu;
+  } else {
 #pragma GCC unroll 16
-  for (int j = 0; j < N; ++j) x_[j] += pht[j] * k_nu;
+    for (int j = 0; j < N; ++j) {
+      g[j] = pht[j] * root;
+      diag[j] = p_(j, j) - g[j] * g[j];
+      if (!(diag[j] > S(0)) && !heldState(j, pht[j])) {
+        ++counters_.bad_covariance;
+        return Status::kBadCovariance;
+      }
+    }
+#pragma GCC unroll 16
+    for (int j = 0; j < N; ++j) x_[j] += pht[j] * k_nu;
+  }
   if constexpr (kSparse) {
     for (int b = 0; b < n_act; ++b) {
       const int k = act[b];
