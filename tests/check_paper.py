@@ -2,8 +2,8 @@
 """Checks an `odoerr paper` output directory: summary.json has exactly the documented shape,
 and (with --acceptance) the 30 m figures lie in the ranges of the issue's acceptance; with
 --k-acceptance, K meets issue 15's acceptance at 30 m from both starts: mean within 5 % of the
-truth, accuracy within 1.5x bound_pct (K's with delta unknown, as the AKF estimates it), reported sigma
-within 1.5x of the spread."""
+truth, accuracy within 1.5x bound_pct (K's with delta unknown, as the AKF estimates it),
+reported sigma within 1.5x of the spread."""
 import argparse
 import json
 import math
