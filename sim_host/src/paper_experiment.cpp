@@ -147,20 +147,20 @@ void addBound(const PaperOptions& opt, PaperResult* res) {
   res->bound_pct.assign(records, std::vector<double>(params, std::nan("")));
   res->bound_pct_joint = res->bound_pct;
   res->bound_pct_known = res->bound_pct;
-  auto row = [&](std::size_t r, const BoundPoint& bp) {
-    auto pct = [](const BoundValue& v) { return v.bound_pct >= 0 ? v.bound_pct : std::nan(""); };
-    // bound_pct: delta's with K known (the information the AKF's mean model carries), K's
-    // with delta unknown, as the AKF estimates it (the K block of the joint information's
-    // inverse). bound_pct_known: each with the others known.
+  // One record of a table: the systematic parameters' bounds, then K's.
+  auto fill = [](std::vector<double>* out, const std::vector<BoundValue>& sys, const std::vector<BoundValue>& nonsys) {
     std::size_t q = 0;
-    for (const auto& v : bp.systematic) res->bound_pct[r][q++] = pct(v);
-    for (const auto& v : bp.nonsystematic_delta_unknown) res->bound_pct[r][q++] = pct(v);
-    q = 0;
-    for (const auto& v : bp.systematic) res->bound_pct_known[r][q++] = pct(v);
-    for (const auto& v : bp.nonsystematic) res->bound_pct_known[r][q++] = pct(v);
-    q = 0;
-    for (const auto& v : bp.systematic_joint) res->bound_pct_joint[r][q++] = pct(v);
-    for (const auto& v : bp.nonsystematic_delta_unknown) res->bound_pct_joint[r][q++] = pct(v);
+    for (const auto* vs : {&sys, &nonsys}) {
+      for (const auto& v : *vs) (*out)[q++] = v.bound_pct >= 0 ? v.bound_pct : std::nan("");
+    }
+  };
+  // bound_pct: delta's with K known (the information the AKF's mean model carries), K's
+  // with delta unknown, as the AKF estimates it (the K block of the joint information's
+  // inverse). bound_pct_known: each with the others known.
+  auto row = [&](std::size_t r, const BoundPoint& bp) {
+    fill(&res->bound_pct[r], bp.systematic, bp.nonsystematic_delta_unknown);
+    fill(&res->bound_pct_known[r], bp.systematic, bp.nonsystematic);
+    fill(&res->bound_pct_joint[r], bp.systematic_joint, bp.nonsystematic_delta_unknown);
   };
   // Records: cycle 0, then every record_every cycles, and the last cycle when steps is not
   // a multiple (runDrive's); the bound's along-path records are the multiples.
@@ -243,9 +243,10 @@ std::string summaryJson(const PaperResult& r) {
       json params = json::object();
       for (std::size_t q = 0; q < c.names.size(); ++q) {
         const Stat& s = c.params[i][q];
-        const double b = r.bound_pct.empty() ? std::nan("") : r.bound_pct[i][q];
-        const double bj = r.bound_pct_joint.empty() ? std::nan("") : r.bound_pct_joint[i][q];
-        const double bk = r.bound_pct_known.empty() ? std::nan("") : r.bound_pct_known[i][q];
+        auto bound = [&](const std::vector<std::vector<double>>& t) {
+          const double b = t.empty() ? std::nan("") : t[i][q];
+          return std::isfinite(b) ? json(b) : json(nullptr);
+        };
         // Sigma honesty: the mean reported sigma over the spread (population std) across
         // runs; null when the spread is zero (one run) or undefined.
         const double spread = s.accuracy_pct / 100.0 * std::abs(s.mean);
@@ -253,9 +254,9 @@ std::string summaryJson(const PaperResult& r) {
         params[c.names[q]] = {{"true", s.truth},
                               {"mean", s.mean},
                               {"accuracy_pct", s.accuracy_pct},
-                              {"bound_pct", std::isfinite(b) ? json(b) : json(nullptr)},
-                              {"bound_pct_joint", std::isfinite(bj) ? json(bj) : json(nullptr)},
-                              {"bound_pct_known", std::isfinite(bk) ? json(bk) : json(nullptr)},
+                              {"bound_pct", bound(r.bound_pct)},
+                              {"bound_pct_joint", bound(r.bound_pct_joint)},
+                              {"bound_pct_known", bound(r.bound_pct_known)},
                               {"rmse", s.rmse},
                               {"sigma_mean", s.sigma_mean},
                               {"sigma_ratio", std::isfinite(ratio) ? json(ratio) : json(nullptr)}};

@@ -92,8 +92,9 @@ inline auto Akf<ModelT>::updateBeamCS(const MapT& map, const LaserGeometry<S, Ma
   S g[N];
   S diag[N];
   if constexpr (kSparse) {
-    // The states with variance only: a held state has pht 0, so g 0, its diagonal stays 0
-    // and its estimate does not move (the dense loops below, over every state, agree).
+    // The states with variance only: a held state has pht 0, so g 0, its row, column and
+    // diagonal stay 0 and its estimate does not move (the dense loops below, over every
+    // state, agree).
     for (int a = 0; a < n_act; ++a) {
       const int j = act[a];
       g[j] = pht[j] * root;
@@ -104,7 +105,14 @@ inline auto Akf<ModelT>::updateBeamCS(const MapT& map, const LaserGeometry<S, Ma
       }
     }
     for (int a = 0; a < n_act; ++a) x_[act[a]] += pht[act[a]] * k_nu;
+    for (int b = 0; b < n_act; ++b) {
+      const int k = act[b];
+      for (int a = 0; a < b; ++a) p_(act[a], k) -= g[act[a]] * g[k];
+      p_(k, k) = diag[k];
+    }
   } else {
+    (void)act;
+    (void)n_act;
 #pragma GCC unroll 16
     for (int j = 0; j < N; ++j) {
       g[j] = pht[j] * root;
@@ -116,16 +124,6 @@ inline auto Akf<ModelT>::updateBeamCS(const MapT& map, const LaserGeometry<S, Ma
     }
 #pragma GCC unroll 16
     for (int j = 0; j < N; ++j) x_[j] += pht[j] * k_nu;
-  }
-  if constexpr (kSparse) {
-    for (int b = 0; b < n_act; ++b) {
-      const int k = act[b];
-      for (int a = 0; a < b; ++a) p_(act[a], k) -= g[act[a]] * g[k];
-      p_(k, k) = diag[k];
-    }
-  } else {
-    (void)act;
-    (void)n_act;
 #pragma GCC unroll 16
     for (int j = 0; j < N; ++j) {
       p_(j, j) = diag[j];
