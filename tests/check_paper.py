@@ -39,7 +39,7 @@ def main():
     check(set(s) == (keys | {"ml"} if s.get("of") == "ml" else keys), "top-level keys")
     if s.get("of") == "ml":
         check(set(s["ml"]) == {"every", "solve_iters", "reset_log", "inflate", "inflate_held", "inflate_cap", "start_inflate_cap", "form", "discount",
-                                "discount_above", "reset_keep", "shift", "deflate", "heading_scale"}
+                                "discount_above", "credit", "reset_keep", "shift", "deflate", "heading_scale"}
               and s["ml"]["form"] in ("pose", "scan", "beam") and s["ml"]["shift"] in ("scale", "line"),
               "ml settings")
     check(s["path"] in ("circle", "eight"), "path is circle or eight")

@@ -220,6 +220,7 @@ std::string summaryJson(const PaperResult& r) {
                {"form", toString(r.ml.form)},
                {"discount", r.ml.discount},
                {"discount_above", r.ml.discount_above},
+               {"credit", r.ml.credit},
                {"reset_keep", r.ml.reset_keep},
                {"shift", r.ml.scale_shift ? "scale" : "line"},
                {"deflate", r.ml.deflate},

@@ -172,6 +172,7 @@ int main(int argc, char** argv) {
   double ml_inflate_held = KMlConfig<double>{}.inflate_held;
   std::string ml_form = "pose";
   bool ml_no_discount = false;
+  bool ml_no_credit = false;
   bool ml_line_shift = false;
   bool ml_no_deflate = false;
   bool ml_no_heading_scale = false;
@@ -232,6 +233,9 @@ int main(int argc, char** argv) {
   paper->add_flag("--ml-no-discount", ml_no_discount,
                   "ml: keep what the AKF knew of the systematic parameters when the K it predicts with "
                   "rises (by default it is discounted by the same factor, up to the prior)");
+  paper->add_flag("--ml-no-credit", ml_no_credit,
+                  "ml, sync drive from above: keep P's systematic block when K falls while inflated (by "
+                  "default what the AKF gathered since its prior is credited by the fall)");
   paper->add_option("--ml-discount-above", ml_discount_above,
                     "ml: discount only when K has risen this many times above the smallest K the AKF "
                     "predicted with since the last discount")
@@ -327,6 +331,7 @@ int main(int argc, char** argv) {
     mlc.max_inflate_log = std::log(ml_inflate_cap);
     mlc.max_start_inflate_log = std::log(ml_start_inflate_cap);
     mlc.discount = !ml_no_discount;
+    mlc.credit = !ml_no_credit;
     mlc.reset_keep = ml_reset_keep;
     mlc.discount_above = ml_discount_above;
     (void)parseKMlForm(ml_form, &mlc.form);  // CLI11 has checked the name

@@ -91,6 +91,9 @@ class KMaxLikelihood {
     updateFilterK();
     overstated_ = S(1);
     kf_min_ = filterK();
+    credited_ = S(1);
+    stepped_ = false;
+    from_above_ = false;
   }
 
   KVec estimate() const { return k_.template head<M>(); }
@@ -111,6 +114,12 @@ class KMaxLikelihood {
   /// since the last such discount) over the components when above
   /// KMlConfig::discount_above, else 1 (MlDriver discounts the AKF's parameters by it).
   S overstatement() const { return overstated_; }
+  /// The factor by which the AKF's knowledge of the systematic parameters was understated,
+  /// as seen at the last step (KMlConfig::credit; synchronous drive): the smallest fall
+  /// K_before / K over the components when every K fell while K_f was inflated, in a run
+  /// whose first step lowered every K (from above), capped at credit_max; else 1 (MlDriver
+  /// credits the AKF's parameters by it).
+  S understatement() const { return credited_; }
   /// Covariance of K from the accumulated information (J^-1 in log K, mapped to K).
   /// With c estimated (kHeadingScale), J with c's prior, marginalised over c: it then holds
   /// delta_d's share of K_w's uncertainty.
@@ -303,6 +312,9 @@ class KMaxLikelihood {
       return false;
     }
     taken_ = 0;
+    credited_ = S(1);
+    const KVec k_before = estimate();
+    const bool was_inflated = inflated();
     const bool hs = headingScaleOn();
     if (cfg_.deflate && !hs) deflateBySystematic(x, p);
     // c's prior from the AKF's delta_d (sets c_f); without c a unit prior and no score hold
@@ -394,6 +406,7 @@ class KMaxLikelihood {
     }
     for (int i = 0; i < active(); ++i) k_[i] *= std::exp(total[i]);
     ++counters_.steps;
+    creditFall(k_before, was_inflated);
     if (cfg_.reset_log > S(0)) {
       S moved = S(0);
       for (int i = 0; i < M; ++i) moved = std::max(moved, std::abs(std::log(k_[i] / k_ref_[i])));
@@ -474,6 +487,21 @@ class KMaxLikelihood {
     if (!(k_[kC] > S(0))) {  // the first step: c starts at the AKF's
       k_[kC] = kf_[kC];
       prior_mean_ = *mean;
+    }
+  }
+
+  /// KMlConfig::credit, after a step from k_before: the first step marks the run as from
+  /// above when it lowered every K; later falls of every K while K_f was inflated (was_inflated)
+  /// set credited_ to the smallest fall. Synchronous drive only (not kHeadingScale).
+  void creditFall(const KVec& k_before, bool was_inflated) {
+    S fall = k_before[0] / k_[0];
+    for (int i = 1; i < M; ++i) fall = std::min(fall, k_before[i] / k_[i]);
+    if (!stepped_) {
+      stepped_ = true;
+      from_above_ = fall > S(1);
+    }
+    if (!kHeadingScale && cfg_.credit && from_above_ && was_inflated && fall > S(1)) {
+      credited_ = std::min(fall, cfg_.credit_max);
     }
   }
 
@@ -559,6 +587,9 @@ class KMaxLikelihood {
   int taken_ = 0;  ///< scans (or beams) taken since the last step
   S overstated_ = S(1);
   KVec kf_min_ = KVec::Ones();  ///< the smallest K_f since the last discount
+  S credited_ = S(1);           ///< understatement()
+  bool stepped_ = false;        ///< a step has been taken since init
+  bool from_above_ = false;     ///< the first step lowered every K (credit)
   PVec h_ = PVec::Zero();  ///< 1/2 tr(C dP_i): what the score of K_i would be with no innovation
   KMlCounters counters_{};
 };

@@ -61,7 +61,13 @@ class MlDriver {
         }
       }
     }
-    if (ml_.endCycle(akf_.state(), akf_.covariance()) && ml_.overstatement() > S(1)) discount(ml_.overstatement());
+    if (ml_.endCycle(akf_.state(), akf_.covariance())) {
+      if (ml_.overstatement() > S(1)) {
+        discount(ml_.overstatement());
+      } else if (ml_.understatement() > S(1)) {
+        credit(ml_.understatement());
+      }
+    }
   }
 
   const AkfT& akf() const { return akf_; }
@@ -84,6 +90,22 @@ class MlDriver {
     for (int j = 3; j < N; ++j) {
       const S r = p(j, j) > S(0) ? std::min(factor, prior_var_[j] / p(j, j)) : S(1);
       d[j] = r > S(1) ? std::sqrt(r) : S(1);
+    }
+    akf_.scaleParameterCovariance(d);  // reads d[3..N-1]
+  }
+
+  /// The mirror of discount() (KMlConfig::credit, synchronous drive from above): what the
+  /// AKF gathered on each systematic parameter since its prior, 1/P - 1/P_0 on the diagonal,
+  /// came under a K `factor` times too large; its information is scaled up by factor (the
+  /// covariances by the same factors, so P stays a congruence). Measured in
+  /// docs/nonsystematic.md "The credit from above".
+  ODOERR_NOINLINE void credit(S factor) {
+    S d[N];
+    const auto& p = akf_.covariance();
+    for (int j = 3; j < N; ++j) {
+      const S info = p(j, j) > S(0) ? S(1) / p(j, j) : S(0);
+      const S gathered = prior_var_[j] > S(0) ? info - S(1) / prior_var_[j] : S(0);
+      d[j] = gathered > S(0) ? std::sqrt(S(1) / ((info + gathered * (factor - S(1))) * p(j, j))) : S(1);
     }
     akf_.scaleParameterCovariance(d);  // reads d[3..N-1]
   }
@@ -118,7 +140,7 @@ class MlDriver {
   typename Est::MapT map_;
   typename Est::LaserT laser_;
   MlT ml_;
-  S prior_var_[N];  ///< the AKF's initial variances: discount() does not go above them
+  S prior_var_[N];  ///< the AKF's initial variances: discount() does not go above them, credit() scales what P gained on them
   S loglik_ = S(0);
 };
 
