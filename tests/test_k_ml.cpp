@@ -258,9 +258,8 @@ TEST(KMl, IteratedSolveDescendsFromAboveSync) {
 // above while the AKF predicts with an inflated K, what it gathered on delta_rho since its
 // prior came under a Q too large and is credited by the fall. Without it, delta_rho's sigma
 // overstates its spread across runs, and the AKF goes on weighing new data too much
-// (docs/nonsystematic.md "The credit from above"; 60 runs: sigma / spread at 5, 10, 20 m
-// 1.30, 1.19, 1.17 with it, 1.36, 1.34, 1.36 without). With it sigma is lower and nearer
-// the spread, honest within 1.5x.
+// (docs/nonsystematic.md "The credit from above"; these 40 runs at 10 m: sigma / spread 1.23
+// with it, 1.40 without). With it sigma is lower and nearer the spread, honest within 1.5x.
 TEST(KMl, CreditBringsDeltaRhoSigmaToItsSpreadFromAboveSync) {
   const KMlConfig<double> def;
   ASSERT_TRUE(def.credit);

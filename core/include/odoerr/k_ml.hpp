@@ -60,6 +60,15 @@ class KMaxLikelihood {
   static constexpr bool kHeadingScale = std::is_same_v<Drive, DiffDrive<S>>;
   static constexpr int P = M + (kHeadingScale ? 1 : 0);  ///< the parameters of Q estimated
   static constexpr int kC = M;                            ///< c's index (kHeadingScale)
+  /// The AKF state the credit from above acts on (KMlConfig::credit): the synchronous
+  /// drive's delta_rho; none (-1) on the differential drive.
+  static constexpr int kCreditedState = [] {
+    if constexpr (kHeadingScale) {
+      return -1;
+    } else {
+      return Model::kDriveOffset + Drive::kDeltaRho;
+    }
+  }();
   using PVec = Eigen::Matrix<S, P, 1>;
   using PMat = Eigen::Matrix<S, P, P>;
   using StateVec = Eigen::Matrix<S, N, 1>;
@@ -114,11 +123,11 @@ class KMaxLikelihood {
   /// since the last such discount) over the components when above
   /// KMlConfig::discount_above, else 1 (MlDriver discounts the AKF's parameters by it).
   S overstatement() const { return overstated_; }
-  /// The factor by which the AKF's knowledge of the systematic parameters was understated,
+  /// The factor by which the AKF's knowledge of delta_rho (kCreditedState) was understated,
   /// as seen at the last step (KMlConfig::credit; synchronous drive): the smallest fall
   /// K_before / K over the components when every K fell while K_f was inflated, in a run
   /// whose first step lowered every K (from above), capped at credit_max; else 1 (MlDriver
-  /// credits the AKF's parameters by it).
+  /// credits the AKF's delta_rho by it).
   S understatement() const { return credited_; }
   /// Covariance of K from the accumulated information (J^-1 in log K, mapped to K).
   /// With c estimated (kHeadingScale), J with c's prior, marginalised over c: it then holds

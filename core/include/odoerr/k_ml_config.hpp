@@ -115,18 +115,20 @@ struct KMlConfig {
   bool discount = true;
   /// Only a rise beyond this factor is discounted (overstatement).
   S discount_above = S(2);
-  /// Synchronous drive, from above: the mirror of the discount (KMaxLikelihood::credit,
-  /// MlDriver::credit). In a run whose first K step lowered every K, each later step that
-  /// lowers every K while the AKF predicts with an inflated K_f scales the information the
-  /// AKF has gathered on the systematic parameters since its prior (1/P - 1/P_0) by the fall
-  /// (capped at credit_max): it was gathered under a Q too large by about that factor, so P
-  /// overstated the uncertainty, and the AKF went on weighing new data too much (session 15:
-  /// delta_rho's sigma 4.7 % at 2 m against the oracle's 2.3 %). Measured over 300 runs from
-  /// above, end error over the paper OF's, run by run: delta_rho on the circle 1.047x ->
-  /// 1.002x (seeds 1-300), 1.031x -> 1.005x (1001-1300), on the eight 1.026x -> 0.988x
-  /// (docs/nonsystematic.md "The credit from above"). Not from below: there the falls after
-  /// an overshoot are wander, and crediting them put delta_rho at 1.11x. Not on the
-  /// differential drive, whose Q depends on delta_d (delta from above 1.28-1.34x).
+  /// Synchronous drive, from above: the mirror of the discount for delta_rho
+  /// (KMaxLikelihood::understatement, MlDriver::credit). In a run whose first K step lowered
+  /// every K, each later step that lowers every K while the AKF predicts with an inflated K_f
+  /// scales the information the AKF has gathered on delta_rho since its prior (1/P - 1/P_0)
+  /// by the smallest fall (capped at credit_max): it was gathered under a Q too large by
+  /// about that factor, so P overstated the uncertainty, and the AKF went on weighing new data
+  /// too much (session 15: delta_rho's sigma 4.7 % at 2 m against the oracle's 2.3 %).
+  /// Measured over 300 runs from above, end error over the paper OF's, run by run: delta_rho
+  /// on the circle 1.047x -> 1.007x (seeds 1-300), 1.031x -> 1.001x (1001-1300), on the eight
+  /// 1.026x -> 0.991x, E_theta unchanged (docs/nonsystematic.md "The credit from above").
+  /// Crediting E_theta too cost it 2-4 %; each parameter by its own K's fall, delta_rho 1.06x.
+  /// Not from below: there the falls after an overshoot are wander, and crediting them put
+  /// delta_rho at 1.11x. Not on the differential drive, whose Q depends on delta_d (delta
+  /// from above 1.28-1.34x).
   bool credit = true;
   /// The largest factor one step credits.
   S credit_max = S(10);

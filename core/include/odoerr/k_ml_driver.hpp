@@ -94,20 +94,25 @@ class MlDriver {
     akf_.scaleParameterCovariance(d);  // reads d[3..N-1]
   }
 
-  /// The mirror of discount() (KMlConfig::credit, synchronous drive from above): what the
-  /// AKF gathered on each systematic parameter since its prior, 1/P - 1/P_0 on the diagonal,
-  /// came under a K `factor` times too large; its information is scaled up by factor (the
-  /// covariances by the same factors, so P stays a congruence). Measured in
-  /// docs/nonsystematic.md "The credit from above".
+  /// The mirror of discount() for delta_rho (KMlConfig::credit, synchronous drive from
+  /// above): what the AKF gathered on it since its prior, 1/P - 1/P_0, came under a K
+  /// `factor` times too large; that information is scaled up by factor (its row and column
+  /// of P by one factor, so P stays a congruence). E_theta is left as it is: credited too it
+  /// ended 2-4 % worse (docs/nonsystematic.md "The credit from above").
   ODOERR_NOINLINE void credit(S factor) {
-    S d[N];
-    const auto& p = akf_.covariance();
-    for (int j = 3; j < N; ++j) {
-      const S info = p(j, j) > S(0) ? S(1) / p(j, j) : S(0);
+    constexpr int j = MlT::kCreditedState;
+    if constexpr (j >= 3) {
+      S d[N];
+      for (int i = 3; i < N; ++i) d[i] = S(1);
+      const S pjj = akf_.covariance()(j, j);
+      const S info = pjj > S(0) ? S(1) / pjj : S(0);
       const S gathered = prior_var_[j] > S(0) ? info - S(1) / prior_var_[j] : S(0);
-      d[j] = gathered > S(0) ? std::sqrt(S(1) / ((info + gathered * (factor - S(1))) * p(j, j))) : S(1);
+      if (!(gathered > S(0))) return;
+      d[j] = std::sqrt(S(1) / ((info + gathered * (factor - S(1))) * pjj));
+      akf_.scaleParameterCovariance(d);  // reads d[3..N-1]
+    } else {
+      (void)factor;
     }
-    akf_.scaleParameterCovariance(d);  // reads d[3..N-1]
   }
 
   /// The kBeam form's scan: every fused beam's row by a second ray cast at the state before
