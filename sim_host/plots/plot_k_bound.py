@@ -1,13 +1,18 @@
 #!/usr/bin/env python3
-"""The non-systematic parameters' accuracy in `odoerr paper` against their Cramér-Rao bound.
+"""K's accuracy and mean in `odoerr paper`, estimators side by side, against the Cramér-Rao bound.
 
-usage: plot_k_bound.py --sync DIR --diff DIR --out PNG
-DIR is an `odoerr paper --out DIR` directory (its paper_<drive>.csv, with the
-_bound_pct columns). One panel per parameter: accuracy (std/mean over the runs, %) from
-both starts, and the bound (dotted). Used for docs/img/nonsystematic-bound.png.
+usage: plot_k_bound.py --run LABEL=DIR [--run LABEL=DIR ...] --out PNG [--title TEXT]
+Each DIR is an `odoerr paper --out DIR` directory (summary.json and paper_<drive>.csv with
+the _bound_pct columns), of either drive; give each estimator's directory for each drive
+(e.g. "paper's OF=out/paper-sync", "ml=out/paper-sync-ml", and the same for diff). All
+directories must share one path (circle or eight). Columns: K_rho, K_theta (sync), K_w
+(diff); top row the accuracy (std / mean over the runs, %) with the bound dotted (K's
+bound_pct: the systematic parameters unknown), bottom row the mean over the truth. Solid:
+the start 100x below the truth; dashed: 100x above. Used for docs/img/nonsystematic-*.png.
 """
 import argparse
 import csv
+import json
 import os
 import sys
 
@@ -16,46 +21,92 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
+PANELS = [("sync", "K_rho", r"$K_\rho$"), ("sync", "K_theta", r"$K_\theta$"), ("diff", "K_w", r"$K_w$")]
 
-def load(path):
+
+def fail(msg):
+    sys.exit("plot_k_bound.py: " + msg)
+
+
+def load(spec):
+    if "=" not in spec:
+        fail("--run %s: expected LABEL=DIR" % spec)
+    label, d = spec.split("=", 1)
+    path = os.path.join(d, "summary.json")
     try:
-        with open(path, newline="") as f:
+        with open(path) as f:
+            summary = json.load(f)
+        drive = summary["drive"]
+        path_kind = summary.get("path", "circle")
+    except (OSError, ValueError, KeyError, TypeError) as e:
+        fail("%s: %s" % (path, e))
+    fn = os.path.join(d, "paper_%s.csv" % drive)
+    try:
+        with open(fn, newline="") as f:
             rows = list(csv.DictReader(f))
     except OSError as e:
-        sys.exit("plot_k_bound.py: cannot read %s: %s" % (path, e.strerror or e))
+        fail("cannot read %s: %s" % (fn, e.strerror or e))
     if not rows:
-        sys.exit("plot_k_bound.py: %s has no rows" % path)
-    return rows
+        fail("%s has no rows" % fn)
+    out = {}
+    for line, r in enumerate(rows, start=2):
+        try:
+            out.setdefault(r["init"], []).append({k: float(v) for k, v in r.items() if k != "init"})
+        except (KeyError, TypeError, ValueError) as e:
+            fail("%s:%d: malformed row (%s)" % (fn, line, e))
+    return label, drive, path_kind, out, fn
 
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--sync", required=True)
-    ap.add_argument("--diff", required=True)
+    ap.add_argument("--run", action="append", required=True, metavar="LABEL=DIR")
     ap.add_argument("--out", required=True)
+    ap.add_argument("--title", default=None)
     a = ap.parse_args()
-    panels = [("sync", "K_rho", r"$K_\rho$"), ("sync", "K_theta", r"$K_\theta$"), ("diff", "K_w", r"$K_w$")]
-    data = {"sync": load(os.path.join(a.sync, "paper_sync.csv")), "diff": load(os.path.join(a.diff, "paper_diff.csv"))}
-    fig, axes = plt.subplots(1, 3, figsize=(13, 4), dpi=100)
-    for ax, (drive, name, sym) in zip(axes, panels):
-        rows = data[drive]
-        if name + "_bound_pct" not in rows[0]:
-            sys.exit("plot_k_bound.py: %s has no %s_bound_pct column" % (drive, name))
-        for init, label, color in (("small", "paper's OF, start 100x below", "C0"),
-                                   ("large", "paper's OF, start 100x above", "C1")):
-            r = [x for x in rows if x["init"] == init]
-            ax.plot([float(x["distance_m"]) for x in r], [float(x[name + "_accuracy_pct"]) for x in r],
-                    color=color, lw=1.2, label=label)
-        r = [x for x in rows if x["init"] == "small"]
-        ax.plot([float(x["distance_m"]) for x in r], [float(x[name + "_bound_pct"]) for x in r],
-                color="k", ls=":", lw=1.5, label="Cramér-Rao bound")
-        ax.set_ylim(0, 50)
-        ax.set_xlim(0, 30)
-        ax.set_title("accuracy of %s (%s drive)" % (sym, drive))
-        ax.set_xlabel("travelled distance [m]")
-        ax.set_ylabel("std / mean over runs [%]")
-        ax.grid(True, alpha=0.3)
-        ax.legend(fontsize=8)
+    runs = [load(s) for s in a.run]
+    paths = {r[2] for r in runs}
+    if len(paths) != 1:
+        fail("the directories differ in path: %s" % ", ".join(sorted(paths)))
+    labels = []
+    for r in runs:
+        if r[0] not in labels:
+            labels.append(r[0])
+    colors = {lab: "C%d" % i for i, lab in enumerate(labels)}
+    fig, axes = plt.subplots(2, 3, figsize=(14, 7.5), dpi=100, sharex=True)
+    for col, (drive, name, sym) in enumerate(PANELS):
+        acc, mean = axes[0][col], axes[1][col]
+        bound_drawn = False
+        for label, rdrive, _, data, fn in runs:
+            if rdrive != drive:
+                continue
+            for init, ls, start in (("small", "-", "below"), ("large", "--", "above")):
+                rows = [x for x in data.get(init, []) if x["distance_m"] > 0]
+                if not rows:
+                    fail("%s: no rows for the start from %s" % (fn, start))
+                if name + "_accuracy_pct" not in rows[0] or name + "_bound_pct" not in rows[0]:
+                    fail("%s: no %s_accuracy_pct / %s_bound_pct column" % (fn, name, name))
+                dist = [x["distance_m"] for x in rows]
+                acc.plot(dist, [x[name + "_accuracy_pct"] for x in rows], color=colors[label], ls=ls, lw=1.2,
+                         label="%s, from %s" % (label, start))
+                mean.plot(dist, [x[name + "_mean"] / x[name + "_true"] for x in rows], color=colors[label], ls=ls,
+                          lw=1.2, label="%s, from %s" % (label, start))
+                if not bound_drawn:
+                    acc.plot(dist, [x[name + "_bound_pct"] for x in rows], color="k", ls=":", lw=1.5,
+                             label="Cramér-Rao bound")
+                    bound_drawn = True
+        acc.set_ylim(0, 50)
+        acc.set_title("accuracy of %s (%s drive)" % (sym, drive))
+        acc.set_ylabel("std / mean over runs [%]")
+        mean.set_yscale("log")
+        mean.set_ylim(1e-4, 20)
+        mean.axhline(1.0, color="k", lw=0.8)
+        mean.set_title("mean of %s / truth (%s drive)" % (sym, drive))
+        mean.set_xlabel("travelled distance [m]")
+        for ax in (acc, mean):
+            ax.set_xlim(0, 30)
+            ax.grid(True, alpha=0.3)
+        acc.legend(fontsize=7)
+    fig.suptitle(a.title or "K against its bound, %s" % paths.pop())
     fig.tight_layout()
     fig.savefig(a.out)
     print("wrote " + a.out)
