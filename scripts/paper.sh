@@ -21,5 +21,9 @@ for drive in sync diff; do
   echo
   /usr/bin/python3 tools/report/paper_compare.py "out/paper-$drive" "out/paper-$drive-ml" "${paired[@]}"
 done
+# K against its bound over the drive, both estimators side by side (docs/nonsystematic.md).
+/usr/bin/python3 sim_host/plots/plot_k_bound.py --run "paper's OF=out/paper-sync" --run "paper's OF=out/paper-diff" \
+  --run "ml=out/paper-sync-ml" --run "ml=out/paper-diff-ml" --out out/k-bound.png \
+  --title "K at $RUNS runs on the paper's circle: the paper's OF, --of ml, and the bound" >/dev/null
 echo
-echo "Results: out/paper-{sync,diff}/ (the paper's OF) and out/paper-{sync,diff}-ml/ (summary.json, paper_*.csv, fig*.png, pose_*.png)"
+echo "Results: out/paper-{sync,diff}/ (the paper's OF) and out/paper-{sync,diff}-ml/ (summary.json, paper_*.csv, fig*.png, pose_*.png); out/k-bound.png (K against its bound, both estimators)"
