@@ -6,9 +6,11 @@ Each DIR is an `odoerr paper --out DIR` directory (summary.json and paper_<drive
 the _bound_pct columns), of either drive; give each estimator's directory for each drive
 (e.g. "paper's OF=out/paper-sync", "ml=out/paper-sync-ml", and the same for diff). All
 directories must share one path (circle or eight). Columns: K_rho, K_theta (sync), K_w
-(diff); top row the accuracy (std / mean over the runs, %) with the bound dotted (K's
-bound_pct: the systematic parameters unknown), bottom row the mean over the truth. Solid:
-the start 100x below the truth; dashed: 100x above. Used for docs/img/nonsystematic-*.png.
+(diff), for the drives given; top row the accuracy (std / mean over the runs, %) with the
+bound dotted (K's bound_pct: the systematic parameters unknown), bottom row the mean over
+the truth. Solid: the start 100x below the truth; dashed: 100x above. Used for
+docs/img/nonsystematic-*.png and scripts/paper.sh's out/k-bound.png. A malformed input
+exits with a message naming the file (and the line of a bad CSV row).
 """
 import argparse
 import csv
@@ -40,20 +42,26 @@ def load(spec):
         path_kind = summary.get("path", "circle")
     except (OSError, ValueError, KeyError, TypeError) as e:
         fail("%s: %s" % (path, e))
+    if drive not in ("sync", "diff"):
+        fail("%s: drive %r is neither sync nor diff" % (path, drive))
+    if not isinstance(path_kind, str):
+        fail("%s: path %r is not a name" % (path, path_kind))
     fn = os.path.join(d, "paper_%s.csv" % drive)
+    out = {}
     try:
         with open(fn, newline="") as f:
-            rows = list(csv.DictReader(f))
-    except OSError as e:
-        fail("cannot read %s: %s" % (fn, e.strerror or e))
-    if not rows:
+            reader = csv.DictReader(f)
+            for r in reader:
+                try:
+                    row = {k: float(v) for k, v in r.items() if k != "init"}
+                    out.setdefault(r["init"], []).append(row)
+                    row["distance_m"]
+                except (KeyError, TypeError, ValueError) as e:
+                    fail("%s:%d: malformed row (%s)" % (fn, reader.line_num, e))
+    except (OSError, UnicodeDecodeError, csv.Error) as e:
+        fail("cannot read %s: %s" % (fn, getattr(e, "strerror", None) or e))
+    if not out:
         fail("%s has no rows" % fn)
-    out = {}
-    for line, r in enumerate(rows, start=2):
-        try:
-            out.setdefault(r["init"], []).append({k: float(v) for k, v in r.items() if k != "init"})
-        except (KeyError, TypeError, ValueError) as e:
-            fail("%s:%d: malformed row (%s)" % (fn, line, e))
     return label, drive, path_kind, out, fn
 
 
@@ -72,8 +80,10 @@ def main():
         if r[0] not in labels:
             labels.append(r[0])
     colors = {lab: "C%d" % i for i, lab in enumerate(labels)}
-    fig, axes = plt.subplots(2, 3, figsize=(14, 7.5), dpi=100, sharex=True)
-    for col, (drive, name, sym) in enumerate(PANELS):
+    drives = {r[1] for r in runs}
+    panels = [p for p in PANELS if p[0] in drives]  # the drives given only
+    fig, axes = plt.subplots(2, len(panels), figsize=(4.7 * len(panels), 7.5), dpi=100, sharex=True, squeeze=False)
+    for col, (drive, name, sym) in enumerate(panels):
         acc, mean = axes[0][col], axes[1][col]
         bound_drawn = False
         for label, rdrive, _, data, fn in runs:
@@ -83,8 +93,11 @@ def main():
                 rows = [x for x in data.get(init, []) if x["distance_m"] > 0]
                 if not rows:
                     fail("%s: no rows for the start from %s" % (fn, start))
-                if name + "_accuracy_pct" not in rows[0] or name + "_bound_pct" not in rows[0]:
-                    fail("%s: no %s_accuracy_pct / %s_bound_pct column" % (fn, name, name))
+                for suffix in ("_accuracy_pct", "_bound_pct", "_mean", "_true"):
+                    if name + suffix not in rows[0]:
+                        fail("%s: no %s%s column" % (fn, name, suffix))
+                if any(not x[name + "_true"] > 0 for x in rows):
+                    fail("%s: %s_true is not positive" % (fn, name))
                 dist = [x["distance_m"] for x in rows]
                 acc.plot(dist, [x[name + "_accuracy_pct"] for x in rows], color=colors[label], ls=ls, lw=1.2,
                          label="%s, from %s" % (label, start))

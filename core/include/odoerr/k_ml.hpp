@@ -500,8 +500,9 @@ class KMaxLikelihood {
   }
 
   /// KMlConfig::credit, after a step from k_before: the first step marks the run as from
-  /// above when it lowered every K; later falls of every K while K_f was inflated (was_inflated)
-  /// set credited_ to the smallest fall. Synchronous drive only (not kHeadingScale).
+  /// above when it lowered every K; in such a run every fall of every K while K_f was inflated
+  /// (was_inflated), the first step's included, sets credited_ to the smallest fall.
+  /// Synchronous drive only (not kHeadingScale).
   void creditFall(const KVec& k_before, bool was_inflated) {
     S fall = k_before[0] / k_[0];
     for (int i = 1; i < M; ++i) fall = std::min(fall, k_before[i] / k_[i]);

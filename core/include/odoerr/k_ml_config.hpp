@@ -117,8 +117,8 @@ struct KMlConfig {
   S discount_above = S(2);
   /// Synchronous drive, from above: the mirror of the discount for delta_rho
   /// (KMaxLikelihood::understatement, MlDriver::credit). In a run whose first K step lowered
-  /// every K, each later step that lowers every K while the AKF predicts with an inflated K_f
-  /// scales the information the AKF has gathered on delta_rho since its prior (1/P - 1/P_0)
+  /// every K, each step that lowers every K while the AKF predicts with an inflated K_f (that
+  /// first step included) scales the information the AKF has gathered on delta_rho since its prior (1/P - 1/P_0)
   /// by the smallest fall (capped at credit_max): it was gathered under a Q too large by
   /// about that factor, so P overstated the uncertainty, and the AKF went on weighing new data
   /// too much (session 15: delta_rho's sigma 4.7 % at 2 m against the oracle's 2.3 %).
