@@ -54,10 +54,11 @@ def load(spec):
             for r in reader:
                 try:
                     row = {k: float(v) for k, v in r.items() if k != "init"}
-                    out.setdefault(r["init"], []).append(row)
-                    row["distance_m"]
-                except (KeyError, TypeError, ValueError) as e:
+                except (TypeError, ValueError) as e:
                     fail("%s:%d: malformed row (%s)" % (fn, reader.line_num, e))
+                if "init" not in r or "distance_m" not in row:
+                    fail("%s:%d: malformed row (no init or distance_m)" % (fn, reader.line_num))
+                out.setdefault(r["init"], []).append(row)
     except (OSError, UnicodeDecodeError, csv.Error) as e:
         fail("cannot read %s: %s" % (fn, getattr(e, "strerror", None) or e))
     if not out:
