@@ -16,7 +16,7 @@ namespace odoerr {
 ///    The firmware's form: O(Hc^3) a scan.
 ///  - kScan: each fused scan whole, all sensitivities (scan<Hc, N>): the same score as kBeam.
 ///  - kBeam: each fused beam (beam(): a second ray cast for its row, O(N^2) a beam): the
-///    reference the others are tested against (test_k_ml.cpp).
+///    reference the others are tested against (test_k_ml_score.cpp).
 enum class KMlForm { kPose, kScan, kBeam };
 
 template <typename S>
