@@ -308,7 +308,8 @@ TEST(KMl, DeflationNarrowsKwFromBelowOnTheEight) {
   ASSERT_TRUE(def.deflate);
   def.heading_scale = false;  // the deflation is for K_w alone
   // Measured with the inflation's start cap at the general one (30x), as when the deflation
-  // was chosen: with the default 10x start (session 13) both narrow, 0.057 against 0.059.
+  // was chosen: with the default 10x start (max_start_inflate_log) both narrow, 0.057
+  // against 0.059 (measured at commit ecc54b2).
   def.max_start_inflate_log = def.max_inflate_log;
   KMlConfig<double> whole = def;
   whole.deflate = false;
@@ -369,9 +370,9 @@ TEST(KMl, HeadingScaleLiftsKwOnTheCircleFromAbove) {
 
 // The circle from 100x below: c is held at the AKF's own while the AKF predicts with an
 // inflated K (KMaxLikelihood::step). Moved then, c wandered with the score carried down from
-// the inflated K, and the AKF's delta_R spread 1.5x the paper OF's (session 11: 1.18 % against
-// 0.8 %); left out of J, K_w came out 0.92x. Now K_w is within 5 % with a smaller spread than
-// K_w alone, and delta_R spreads as with the paper's OF (printed).
+// the inflated K, and the AKF's delta_R spread 1.5x the paper OF's (at commit 0320658: 1.18 %
+// against 0.8 %); left out of J, K_w came out 0.92x. Held, K_w is within 5 % with a smaller
+// spread than K_w alone, and delta_R spreads as with the paper's OF (printed).
 TEST(KMl, HeadingScaleHoldsCWhileInflatedFromBelowOnTheCircle) {
   const auto [on, off] = headingScaleAgainstKwAlone(NonSysStart::kSmall, false, "from below on the circle");
   const McStats of = monteCarlo<DiffDrive>(100, 30, NonSysStart::kSmall, KMlConfig<double>{}, OfKind::kPaper);

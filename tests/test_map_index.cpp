@@ -84,7 +84,8 @@ TEST(MapIndex, GridCastEqualsTestingEveryWall) {
 // infinite one only off the map: castDir's contract asks for a finite unit vector), rays
 // from between the map and its fence aimed outwards and at the fence's corners. The walk
 // must end with no hit and never leave its tables (AddressSanitizer runs this suite in
-// CI: host-asan-ci). Before session 7 a NaN direction walked out of the grid.
+// CI: host-asan-ci). A regression test: until commit 064695e a NaN direction walked out of
+// the grid.
 template <typename S>
 void expectBadRaysMiss() {
   const auto walls = randomBuilding(3, 60);

@@ -21,16 +21,17 @@ enum class KMlForm { kPose, kScan, kBeam };
 
 template <typename S>
 struct KMlConfig {
-  /// Cycles between K steps. 5 measured better on the paper's drives (session 13, 300 runs of
-  /// the sync circle: K_rho 10.0 / 10.3 -> 9.1 / 9.0 %, E_theta from above 1.027x -> 1.010x
-  /// the paper OF's; docs/nonsystematic.md) but is not the default yet: K_w alone's sigma
-  /// (heading_scale off) came out 0.56x its spread on the eight, and delta_rho's spread at
-  /// 10 m 1.10x the paper OF's. 1 wandered (K_rho 21.8 %). With the iterated solve
-  /// (solve_iters, session 14) 5 put delta_rho from below at 1.22x the OF's (300 runs).
+  /// Cycles between K steps. 5 measured better on the paper's drives (at commit ecc54b2,
+  /// 300 runs of the sync circle: K_rho 10.0 / 10.3 -> 9.1 / 9.0 %, E_theta from above
+  /// 1.027x -> 1.010x the paper OF's; docs/nonsystematic.md) but is not the default: K_w
+  /// alone's sigma (heading_scale off) came out 0.56x its spread on the eight, and
+  /// delta_rho's spread at 10 m 1.10x the paper OF's. 1 wandered (K_rho 21.8 %). With the
+  /// iterated solve (solve_iters; measured at commit bd08b0e) 5 put delta_rho from below at
+  /// 1.22x the OF's (300 runs).
   int every = 10;
   S max_log_step = S(0.5);        ///< |delta log K| per iteration of a step's solve at most
   /// Iterations of each K step's solve on the synchronous drive when the step lowers every
-  /// K (session 14): the first is the Gauss-Newton step; the further ones follow the
+  /// K: the first is the Gauss-Newton step; the further ones follow the
   /// variance-scale model's curvature with the same factor (a chord method), so that from
   /// above, where the data are saturated, K falls to the batch's level at once instead of
   /// by the line's share of it. 100 runs from 100x above, K_rho / K_theta at 0.2 m 42x / 37x
@@ -121,7 +122,8 @@ struct KMlConfig {
   /// first step included) scales the information the AKF has gathered on delta_rho since its prior (1/P - 1/P_0)
   /// by the smallest fall (capped at credit_max): it was gathered under a Q too large by
   /// about that factor, so P overstated the uncertainty, and the AKF went on weighing new data
-  /// too much (session 15: delta_rho's sigma 4.7 % at 2 m against the oracle's 2.3 %).
+  /// too much (without the credit, at commit 4b49a26: delta_rho's sigma 4.7 % at 2 m against
+  /// the oracle's 2.3 %).
   /// Measured over 300 runs from above, end error over the paper OF's, run by run: delta_rho
   /// on the circle 1.047x -> 1.007x (seeds 1-300), 1.031x -> 1.001x (1001-1300), on the eight
   /// 1.026x -> 0.991x, E_theta unchanged (docs/nonsystematic.md "The credit from above").
