@@ -168,7 +168,7 @@ TEST(FirmwareFaults, ClockThatStalls) {
 
 TEST(FirmwareFaults, PowerLossDuringCalibrationSave) {
   // 200 boots on one flash. Each boot drives 1 m with a save every 50 cycles; at every
-  // other boot the power fails at a random byte-operation of its first save (the session
+  // other boot the power fails at a random byte-operation of its first save (the boot
   // ends there, as the MCU does). The next boot must restore the last record that was
   // completely written, bit for bit.
   Store store;
