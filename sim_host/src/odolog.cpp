@@ -49,7 +49,7 @@ struct Parser {
     errno = 0;
     const double v = std::strtod(tok.c_str(), &end);
     if (end == tok.c_str() || *end != '\0') return fail(std::string(what) + ": '" + tok + "' is not a number");
-    if (!std::isfinite(v) || errno == ERANGE) return fail(std::string(what) + ": '" + tok + "' is not a finite number");
+    if (!std::isfinite(v)) return fail(std::string(what) + ": '" + tok + "' is not a finite number");
     *out = v;
     return true;
   }
