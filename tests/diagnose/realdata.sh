@@ -3,15 +3,18 @@
 # imported to odolog with mocap pose fixes once a second, then diagnosed with a held-out
 # comparison. Checks that the whole contract is produced, that the nominal wheel scales
 # come out near 1, and that the excitation report finds what the paper says of a circle:
-# it cannot separate the wheelbase scale from the wheel scales. Exit 77 without the data.
+# it cannot separate the wheelbase scale from the wheel scales. The run is taken from the
+# data folder, else from the sample in tests/data (tools/import/data_dir.sh); exit 77 when
+# neither has it.
 set -euo pipefail
 odoerr="$1"; out="$2"
 root="$(cd "$(dirname "$0")/../.." && pwd)"
-data="$root/../shared/data/optiodom-diff"
-[ -d "$data" ] || data=/work/shared/data/optiodom-diff
-if [ ! -d "$data" ]; then echo "skipped: ../shared/data absent"; exit 77; fi
+. "$root/tools/import/data_dir.sh"
+rel=optiodom-diff/circular/231220200121/231220200121_run-01.csv
+data="$(odoerr_data_find "$rel")" || odoerr_data_skip "the OptiOdom diagnose check" "$rel"
+echo "data: $(odoerr_data_where "$data")"
 mkdir -p "$out"
-run="$data/circular/231220200121/231220200121_run-01.csv"
+run="$data/$rel"
 /usr/bin/python3 "$root/tools/import/optiodom_to_odolog.py" "$run" --out "$out/optiodom.odolog"
 "$odoerr" diagnose "$out/optiodom.odolog" --json "$out/optiodom.json" --with rotation_slip
 /usr/bin/python3 - "$out/optiodom.json" <<'PY'

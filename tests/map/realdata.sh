@@ -1,6 +1,11 @@
 #!/usr/bin/env bash
-# realdata.sh ODOERR OUTDIR: the map tools on the real data in ../shared/data (skipped,
-# exit 77, when it is absent):
+# realdata.sh ODOERR OUTDIR [turtlebot|intel]: the map tools on real data (the two ctest
+# entries run one part each; without the third argument, both). Where the data comes from
+# (tools/import/data_dir.sh; docs/real-data.md): the TurtleBot3 map from the data folder
+# ($ODOERR_DATA, else ../shared/data), else from the sample in tests/data/ros-maps; the
+# Intel lab's CARMEN log from the data folder only (no sample: no stated licence), its part
+# skipped with a message naming ODOERR_DATA when absent. Exit 77 when every part asked
+# for is skipped.
 # - the TurtleBot3 map_saver map imports with a stated fit: >= 90 % of its occupied cells
 #   within one cell (5 cm) of a segment, RMS <= 4 cm (measured: 96 %, 2.9 cm);
 # - a crop of the Intel lab (its first 100 scans) builds a grid and imports: >= 80 % of the
@@ -11,16 +16,22 @@
 # - the beam geometry: on the crop, a 1 deg beam step puts more returns on occupied cells
 #   than 180/179 deg (the full log's figures are in docs/map-format.md).
 set -u
-bin="$1"; out="$2"
+bin="$1"; out="$2"; part="${3:-}"
+case "$part" in ""|turtlebot|intel) ;; *) echo "realdata.sh: the part is turtlebot or intel, not '$part'" >&2; exit 2 ;; esac
 here="$(cd "$(dirname "$0")" && pwd)"
 root="$(cd "$here/../.." && pwd)"
 py=/usr/bin/python3
-data=""
-# ODOERR_DATA, when set, is the only place looked at (so the skip can be exercised)
-for d in ${ODOERR_DATA:-"$root/../shared/data" /work/shared/data}; do
-  if [ -f "$d/ros-maps/turtlebot3-world/map.yaml" ] && [ -f "$d/carmen/intel-corrected.log.gz" ]; then data="$(cd "$d" && pwd)"; break; fi
-done
-if [ -z "$data" ]; then echo "skipped: ../shared/data absent"; exit 77; fi
+. "$root/tools/import/data_dir.sh"
+tb_data=""; car_data=""
+if [ "$part" != intel ]; then
+  tb_rel=ros-maps/turtlebot3-world/map.yaml
+  tb_data="$(odoerr_data_find "$tb_rel")" || odoerr_data_skip_message "the TurtleBot3 map checks" "$tb_rel"
+fi
+if [ "$part" != turtlebot ]; then
+  car_rel=carmen/intel-corrected.log.gz
+  car_data="$(odoerr_data_full "$car_rel")" || odoerr_data_skip_message "the Intel lab checks" "$car_rel"
+fi
+if [ -z "$tb_data" ] && [ -z "$car_data" ]; then exit 77; fi
 fails=0
 pass() { echo "ok   $*"; }
 fail() { echo "FAIL $*"; fails=$((fails + 1)); }
@@ -29,15 +40,25 @@ mkdir -p "$out" || exit 1
 fit() { sed -n 's/^meta fit .*'"$2"'=\([^ ]*\).*/\1/p' "$1"; }
 ge() { "$py" -c "import sys; sys.exit(0 if float('$1') >= float('$2') else 1)"; }
 
-tb="$out/turtlebot.odomap"
-if msg="$("$bin" map import "$data/ros-maps/turtlebot3-world/map.yaml" --out "$tb" --png "$out/turtlebot.png" 2>&1)"; then
-  w="$(fit "$tb" within_one_cell)"; r="$(fit "$tb" rms_m)"
-  if ge "$w" 0.90 && ge 0.04 "$r"; then pass "turtlebot: $msg"; else fail "turtlebot fit: within $w, rms $r: $msg"; fi
-else
-  fail "turtlebot import: $msg"
+if [ -n "$tb_data" ]; then
+  echo "TurtleBot3 map from $(odoerr_data_where "$tb_data")"
+  tb="$out/turtlebot.odomap"
+  if msg="$("$bin" map import "$tb_data/$tb_rel" --out "$tb" --png "$out/turtlebot.png" 2>&1)"; then
+    w="$(fit "$tb" within_one_cell)"; r="$(fit "$tb" rms_m)"
+    if ge "$w" 0.90 && ge 0.04 "$r"; then pass "turtlebot: $msg"; else fail "turtlebot fit: within $w, rms $r: $msg"; fi
+  else
+    fail "turtlebot import: $msg"
+  fi
 fi
 
-log="$data/carmen/intel-corrected.log.gz"
+# the Intel lab's crop: the rest of the file
+if [ -z "$car_data" ]; then
+  skipped=""; [ -z "$part" ] && skipped="; intel skipped"
+  [ "$fails" -eq 0 ] && echo "all real-data map checks passed (turtlebot$skipped)" && exit 0
+  echo "$fails check(s) failed"; exit 1
+fi
+echo "Intel lab log from $(odoerr_data_where "$car_data")"
+log="$car_data/$car_rel"
 if msg="$("$bin" map grid-from-carmen "$log" --out "$out/intel100" --max-scans 100 2>&1)" &&
    msg2="$("$bin" map import "$out/intel100.yaml" --out "$out/intel100.odomap" --png "$out/intel100.png" 2>&1)"; then
   o="$out/intel100.odomap"
@@ -84,5 +105,5 @@ print(' vs '.join(f\"{x['step']}: {x['returns_on_occupied'] * 100:.1f} % of retu
 raise SystemExit(0 if r[0]['returns_on_occupied'] > r[1]['returns_on_occupied'] else 1)
 ")"; then pass "beam step, first 100 scans: $res"; else fail "beam step: $res"; fi
 
-[ "$fails" -eq 0 ] && echo "all real-data map checks passed" && exit 0
+[ "$fails" -eq 0 ] && echo "all real-data map checks passed${part:+ ($part)}" && exit 0
 echo "$fails check(s) failed"; exit 1

@@ -1,11 +1,17 @@
 #!/usr/bin/env bash
 # check_importers.sh: runs the two dataset importers on the real data and checks what they
-# write. Usage: tools/import/check_importers.sh [--all] [--keep DIR]
-#   --all       every OptiOdom run (148, about a minute) instead of run-01 of each set
+# write. Usage: tools/import/check_importers.sh [--all] [--keep DIR] [--only optiodom|carmen]
+#   --all       every OptiOdom run (148 in the full data, about a minute) instead of run-01
+#               of each set
 #   --keep DIR  leave the outputs in DIR (default: a temporary folder, removed at the end)
-# The data live beside the project at ../shared/data (from the repository root; falling
-# back to /work/shared/data). When absent (a user's own clone) the script prints
-# "skipped: ../shared/data absent" and exits 77. Exit 0 when every check passes, 1 if not.
+#   --only P    only the OptiOdom or only the CARMEN part (the two ctest entries)
+# The data (tools/import/data_dir.sh; docs/real-data.md, "Where the data comes from"): the
+# data folder is $ODOERR_DATA when set, else ../shared/data from the repository root. The
+# OptiOdom part reads its optiodom-diff, else the sample in tests/data/optiodom-diff (3
+# sets' run-01). The CARMEN part needs carmen/intel-corrected.log.gz in the data folder (no
+# sample: the logs state no licence); without it that part prints "skipped: ..." naming
+# ODOERR_DATA. Exit 77 when every part asked for is skipped, else 0 when every check passes,
+# 1 if not.
 #
 # Checks:
 # - every output passes odolog_check.py (an independent reader of the odolog v1 rules)
@@ -23,23 +29,32 @@ py="${PYTHON:-python3}"
 
 all=0
 keep=""
+only=""
 while [ $# -gt 0 ]; do
   case "$1" in
     --all) all=1 ;;
     --keep) keep="${2:?--keep needs a folder}"; shift ;;
-    *) echo "usage: $0 [--all] [--keep DIR]" >&2; exit 2 ;;
+    --only) only="${2:?--only needs optiodom or carmen}"; shift
+            case "$only" in optiodom|carmen) ;; *) echo "$0: --only optiodom|carmen" >&2; exit 2 ;; esac ;;
+    *) echo "usage: $0 [--all] [--keep DIR] [--only optiodom|carmen]" >&2; exit 2 ;;
   esac
   shift
 done
 
-data=""
-for d in "$root/../shared/data" /work/shared/data; do
-  if [ -d "$d/optiodom-diff" ] && [ -f "$d/carmen/intel-corrected.log.gz" ]; then data="$(cd "$d" && pwd)"; break; fi
-done
-if [ -z "$data" ]; then
-  echo "skipped: ../shared/data absent"
-  exit 77
+. "$here/data_dir.sh"
+opt_data=""  # the folder holding optiodom-diff: the data folder, else the sample
+car_data=""  # the folder holding carmen/intel-corrected.log.gz: the data folder only
+skips=()
+if [ "$only" != carmen ]; then
+  opt_data="$(odoerr_data_find optiodom-diff)" ||
+    skips+=("$(odoerr_data_skip_message "the OptiOdom importer checks" optiodom-diff)")
 fi
+if [ "$only" != optiodom ]; then
+  car_data="$(odoerr_data_full carmen/intel-corrected.log.gz)" ||
+    skips+=("$(odoerr_data_skip_message "the CARMEN importer checks" carmen/intel-corrected.log.gz)")
+fi
+for m in "${skips[@]}"; do echo "$m"; done
+if [ -z "$opt_data" ] && [ -z "$car_data" ]; then exit 77; fi
 
 if [ -n "$keep" ]; then
   mkdir -p "$keep" || exit 2
@@ -79,81 +94,83 @@ expect_exit2() {
   fi
 }
 
-echo "== data: $data"
 echo "== outputs: $out"
 
 # ---------------------------------------------------------------- OptiOdom
-echo "== OptiOdom"
-if [ "$all" -eq 1 ]; then
-  mapfile -t runs < <(find "$data/optiodom-diff" -name '*_run-*.csv' | sort)
-else
-  mapfile -t runs < <(find "$data/optiodom-diff" -name '*_run-01.csv' | sort)
-fi
-if [ "${#runs[@]}" -eq 0 ]; then fail "no OptiOdom run files under $data/optiodom-diff"; fi
-n_ok=0
-for f in "${runs[@]}"; do
-  name="$(basename "$f" .csv)"
-  o="$out/optiodom-$name.odolog"
-  if ! msg="$("$py" "$opt" "$f" --out "$o" 2>&1)"; then fail "import $name: $msg"; continue; fi
-  if res="$("$py" "$chk" "$o" --optiodom-csv "$f")"; then
-    n_ok=$((n_ok + 1))
+if [ -n "$opt_data" ]; then
+  echo "== OptiOdom, from $(odoerr_data_where "$opt_data")"
+  if [ "$all" -eq 1 ]; then
+    mapfile -t runs < <(find "$opt_data/optiodom-diff" -name '*_run-*.csv' | sort)
   else
-    fail "check $name:"; echo "$res"
+    mapfile -t runs < <(find "$opt_data/optiodom-diff" -name '*_run-01.csv' | sort)
   fi
-done
-echo "ok   $n_ok of ${#runs[@]} OptiOdom runs imported and checked"
+  if [ "${#runs[@]}" -eq 0 ]; then fail "no OptiOdom run files under $opt_data/optiodom-diff"; fi
+  n_ok=0
+  for f in "${runs[@]}"; do
+    name="$(basename "$f" .csv)"
+    o="$out/optiodom-$name.odolog"
+    if ! msg="$("$py" "$opt" "$f" --out "$o" 2>&1)"; then fail "import $name: $msg"; continue; fi
+    if res="$("$py" "$chk" "$o" --optiodom-csv "$f")"; then
+      n_ok=$((n_ok + 1))
+    else
+      fail "check $name:"; echo "$res"
+    fi
+  done
+  echo "ok   $n_ok of ${#runs[@]} OptiOdom runs imported and checked"
 
-first="${runs[0]:-}"
-if [ -n "$first" ]; then
-  name="$(basename "$first" .csv)"
-  o="$out/optiodom-$name.odolog"
-  t0=$(now); "$py" "$opt" "$first" --out "$scratch/again.odolog" 2>/dev/null; t1=$(now)
-  echo "--   example $name: $(size "$o") bytes, $(wc -l <"$o") lines, import $(secs "$t0" "$t1") s"
-  "$py" "$chk" "$o" --optiodom-csv "$first" | sed 's/^/     /'
-  if cmp -s "$o" "$scratch/again.odolog"; then pass "optiodom: reproducible (byte-identical twice)"
-  else fail "optiodom: two runs on the same input differ"; fi
+  first="${runs[0]:-}"
+  if [ -n "$first" ]; then
+    name="$(basename "$first" .csv)"
+    o="$out/optiodom-$name.odolog"
+    t0=$(now); "$py" "$opt" "$first" --out "$scratch/again.odolog" 2>/dev/null; t1=$(now)
+    echo "--   example $name: $(size "$o") bytes, $(wc -l <"$o") lines, import $(secs "$t0" "$t1") s"
+    "$py" "$chk" "$o" --optiodom-csv "$first" | sed 's/^/     /'
+    if cmp -s "$o" "$scratch/again.odolog"; then pass "optiodom: reproducible (byte-identical twice)"
+    else fail "optiodom: two runs on the same input differ"; fi
 
-  # a byte-order mark changes nothing but the provenance lines
-  { printf '\xef\xbb\xbf'; cat "$first"; } >"$scratch/bom.csv"
-  if "$py" "$opt" "$scratch/bom.csv" --out "$scratch/bom.odolog" 2>/dev/null &&
-     cmp -s <(grep -v '^meta source' "$o") <(grep -v '^meta source' "$scratch/bom.odolog"); then
-    pass "optiodom: a UTF-8 BOM is ignored (same records)"
-  else
-    fail "optiodom: the BOM copy converts differently"
+    # a byte-order mark changes nothing but the provenance lines
+    { printf '\xef\xbb\xbf'; cat "$first"; } >"$scratch/bom.csv"
+    if "$py" "$opt" "$scratch/bom.csv" --out "$scratch/bom.odolog" 2>/dev/null &&
+       cmp -s <(grep -v '^meta source' "$o") <(grep -v '^meta source' "$scratch/bom.odolog"); then
+      pass "optiodom: a UTF-8 BOM is ignored (same records)"
+    else
+      fail "optiodom: the BOM copy converts differently"
+    fi
+
+    # malformed copies: non-numeric field, wrong field count, time going backwards
+    bad="$scratch/bad.csv"
+    sed '57s/^\([^,]*\),[^,]*,/\1,abc,/' "$first" >"$bad"
+    expect_exit2 "optiodom non-numeric x at line 57" 57 "$bad" "$scratch/bad.odolog" \
+      "$py" "$opt" "$bad" --out "$scratch/bad.odolog"
+    sed '100s/$/,1/' "$first" >"$bad"
+    expect_exit2 "optiodom 7 fields at line 100" 100 "$bad" "$scratch/bad.odolog" \
+      "$py" "$opt" "$bad" --out "$scratch/bad.odolog"
+    sed '150s/^[^,]*,/1.0,/' "$first" >"$bad"
+    expect_exit2 "optiodom time backwards at line 150" 150 "$bad" "$scratch/bad.odolog" \
+      "$py" "$opt" "$bad" --out "$scratch/bad.odolog"
+    sed '42s/,\([^,]*\)$/,2.5/' "$first" >"$bad"
+    expect_exit2 "optiodom fractional nL at line 42" 42 "$bad" "$scratch/bad.odolog" \
+      "$py" "$opt" "$bad" --out "$scratch/bad.odolog"
   fi
-
-  # malformed copies: non-numeric field, wrong field count, time going backwards
-  bad="$scratch/bad.csv"
-  sed '57s/^\([^,]*\),[^,]*,/\1,abc,/' "$first" >"$bad"
-  expect_exit2 "optiodom non-numeric x at line 57" 57 "$bad" "$scratch/bad.odolog" \
-    "$py" "$opt" "$bad" --out "$scratch/bad.odolog"
-  sed '100s/$/,1/' "$first" >"$bad"
-  expect_exit2 "optiodom 7 fields at line 100" 100 "$bad" "$scratch/bad.odolog" \
-    "$py" "$opt" "$bad" --out "$scratch/bad.odolog"
-  sed '150s/^[^,]*,/1.0,/' "$first" >"$bad"
-  expect_exit2 "optiodom time backwards at line 150" 150 "$bad" "$scratch/bad.odolog" \
-    "$py" "$opt" "$bad" --out "$scratch/bad.odolog"
-  sed '42s/,\([^,]*\)$/,2.5/' "$first" >"$bad"
-  expect_exit2 "optiodom fractional nL at line 42" 42 "$bad" "$scratch/bad.odolog" \
-    "$py" "$opt" "$bad" --out "$scratch/bad.odolog"
 fi
 
 # ---------------------------------------------------------------- CARMEN
-echo "== CARMEN (Intel Research Lab, corrected)"
-log="$data/carmen/intel-corrected.log.gz"
-o="$out/carmen-intel.odolog"
-t0=$(now)
-if msg="$("$py" "$car" "$log" --out "$o" 2>&1)"; then
-  t1=$(now)
-  echo "--   $msg"
-  echo "--   $(size "$o") bytes, $(wc -l <"$o") lines, import $(secs "$t0" "$t1") s"
-  if res="$("$py" "$chk" "$o" --carmen-log "$log")"; then pass "carmen: checked"; else fail "carmen: check"; fi
-  echo "$res" | sed 's/^/     /'
-  "$py" "$car" "$log" --out "$scratch/again.odolog" 2>/dev/null
-  if cmp -s "$o" "$scratch/again.odolog"; then pass "carmen: reproducible (byte-identical twice)"
-  else fail "carmen: two runs on the same input differ"; fi
-else
-  fail "carmen import: $msg"
+if [ -n "$car_data" ]; then
+  echo "== CARMEN (Intel Research Lab, corrected), from $(odoerr_data_where "$car_data")"
+  log="$car_data/carmen/intel-corrected.log.gz"
+  o="$out/carmen-intel.odolog"
+  t0=$(now)
+  if msg="$("$py" "$car" "$log" --out "$o" 2>&1)"; then
+    t1=$(now)
+    echo "--   $msg"
+    echo "--   $(size "$o") bytes, $(wc -l <"$o") lines, import $(secs "$t0" "$t1") s"
+    if res="$("$py" "$chk" "$o" --carmen-log "$log")"; then pass "carmen: checked"; else fail "carmen: check"; fi
+    echo "$res" | sed 's/^/     /'
+    "$py" "$car" "$log" --out "$scratch/again.odolog" 2>/dev/null
+    if cmp -s "$o" "$scratch/again.odolog"; then pass "carmen: reproducible (byte-identical twice)"
+    else fail "carmen: two runs on the same input differ"; fi
+  else
+    fail "carmen import: $msg"
 fi
 
 o2="$out/carmen-intel-100-fix10.odolog"
@@ -176,10 +193,11 @@ expect_exit2 "carmen non-numeric ODOM x at line $ln_odom (.gz)" "$ln_odom" "$scr
 awk -v n="$ln_flaser" 'NR == n { $3 = "" } { print }' "$plain" >"$scratch/bad.log"
 expect_exit2 "carmen FLASER missing a range at line $ln_flaser" "$ln_flaser" "$scratch/bad.log" \
   "$scratch/bad.odolog" "$py" "$car" "$scratch/bad.log" --out "$scratch/bad.odolog"
+fi
 
 echo
 if [ "$fails" -eq 0 ]; then
-  echo "all importer checks passed"
+  echo "all importer checks passed${skips[*]:+ (${#skips[@]} part skipped, above)}"
   exit 0
 fi
 echo "$fails importer check(s) failed"

@@ -1,5 +1,5 @@
 """What the odolog importers share: the input error, the atomic write, a one-line argument
-parser and the entry point. Standard library only."""
+parser, the entry point, and where the real data is. Standard library only."""
 import argparse
 import gzip
 import math
@@ -10,6 +10,37 @@ import sys
 
 # a plain decimal number (no inf, nan, hex or underscores)
 NUMBER_RE = re.compile(r"^[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?$")
+
+
+# Where the real data is (docs/real-data.md, "Where the data comes from"; the same rule as
+# data_dir.sh for the shell scripts): the data folder is $ODOERR_DATA when set, else
+# <repository root>/../shared/data; what the data folder lacks is taken from the sample in
+# the repository, tests/data (the same layout), when the sample has it.
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+SAMPLE_DIR = os.path.join(ROOT, "tests", "data")
+
+
+def data_dir():
+    """The data folder: $ODOERR_DATA when set (and not empty), else ../shared/data from the
+    repository root."""
+    return os.environ.get("ODOERR_DATA") or os.path.normpath(os.path.join(ROOT, "..", "shared", "data"))
+
+
+def find_data(rel, sample=True):
+    """The folder holding rel (a path relative to it): the data folder, else (sample=True)
+    tests/data; None when neither has it."""
+    for d in (data_dir(), SAMPLE_DIR) if sample else (data_dir(),):
+        if os.path.exists(os.path.join(d, rel)):
+            return d
+    return None
+
+
+def skip_message(what, rel):
+    """The line a script prints before exiting 77 when rel (relative to the data folder, or a
+    whole path) is absent."""
+    where = "" if os.path.isabs(rel) else " from the data folder %s" % data_dir()
+    return ("skipped: %s: %s is absent%s (set ODOERR_DATA to a folder holding it; "
+            "default: ../shared/data from the repository root)" % (what, rel, where))
 
 
 class InputError(Exception):

@@ -9,14 +9,17 @@ the heading error per metre of travel e = (kT - 1) / R split into its part commo
 directions (a wheel-diameter ratio: the same sign whichever way the robot turns) and its
 part that follows the turn (an effective wheelbase: a = 1 - R * odd part).
 
-Usage: optiodom_directions.py [DATA_DIR]   (default ../shared/data/optiodom-diff)
+Usage: optiodom_directions.py [DATA_DIR]   (default: optiodom-diff in the data folder,
+$ODOERR_DATA, else ../shared/data from the repository root; every run is needed, so the
+sample in tests/data is not used)
 """
 import glob
 import os
 import statistics
 import sys
 
-ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+import import_common
+
 TICK = 3.141592653589793 * 0.084 / (43.7 * 64)
 B = 0.2
 
@@ -45,9 +48,9 @@ def runStats(path):
 
 
 def main():
-    data = sys.argv[1] if len(sys.argv) > 1 else os.path.join(ROOT, "../shared/data/optiodom-diff")
+    data = sys.argv[1] if len(sys.argv) > 1 else os.path.join(import_common.data_dir(), "optiodom-diff")
     if not os.path.isdir(data):
-        print("skipped: the OptiOdom data (%s) is absent" % data)
+        print(import_common.skip_message("the direction analysis", data))
         return 77
     groups = {}
     print("| run | dir | R (m) | v (m/s) | kS | kT |\n|---|---|---|---|---|---|")

@@ -9,7 +9,12 @@ Usage: run_optiodom_evaluate.py OUT_DIR [--odoerr BIN] [--data DIR]
                                 [--fix-sigma-xy M] [--fix-sigma-theta RAD]
                                 [--evaluate-fix-sigma logs|auto|cv|XY,THETA]
                                 [--evaluate-with TERMS|cv] [--quick]
-Exit 77 when the data is absent; 1 when an acceptance criterion fails (--check).
+The data: --data, else optiodom-diff in the data folder (import_common.data_dir():
+$ODOERR_DATA, else ../shared/data from the repository root). --quick takes the runs named
+in QUICK, which the sample in the repository (tests/data/optiodom-diff) also holds, so it
+falls back to the sample when the data folder lacks them. The full evaluation needs every
+run: exit 77, naming ODOERR_DATA, when the data folder has none; 1 when an acceptance
+criterion fails (--check).
 """
 import argparse
 import glob
@@ -18,8 +23,16 @@ import os
 import subprocess
 import sys
 
+import import_common
+
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 AUTHORS = "0.99544,0.99610,1.00192"  # the dataset README: the OptiOdom paper's calibration
+# --quick: 2 squares, 2 circles (one of each direction), 2 ivanjko runs (straight), by name:
+# the 1st and 4th square and circle (run-01 and run-04 of the first set) and the first two
+# ivanjko runs of the full data's sorted listing. tests/data/optiodom-diff holds these.
+QUICK = {"square": ["230620202042/230620202042_run-01", "230620202042/230620202042_run-04"],
+         "circular": ["231220200121/231220200121_run-01", "231220200121/231220200121_run-04"],
+         "ivanjko": ["231220200057/231220200057_run-01", "231220200057/231220200057_run-02"]}
 
 
 def direction(log):
@@ -129,22 +142,34 @@ def main():
     ap.add_argument("--check", action="store_true", help="exit 1 unless the acceptance criteria hold")
     ap.add_argument("--no-plots", action="store_true")
     a = ap.parse_args()
-    data = a.data
-    for cand in (data, os.path.join(ROOT, "../shared/data/optiodom-diff"), "/work/shared/data/optiodom-diff"):
-        if cand and os.path.isdir(cand):
-            data = cand
-            break
+    quick_rel = [os.path.join(t, r + ".csv") for t, rs in QUICK.items() for r in rs]
+    if a.data:
+        data = a.data
+        if not os.path.isdir(data):
+            print("skipped: the OptiOdom data folder %s (--data) is absent" % data)
+            return 77
     else:
-        print("skipped: the OptiOdom data (../shared/data/optiodom-diff) is absent")
-        return 77
+        # the data folder; for --quick, the sample when the data folder lacks a QUICK run
+        cands = [import_common.data_dir()] + ([import_common.SAMPLE_DIR] if a.quick else [])
+        rels = quick_rel if a.quick else [""]
+        data = next((os.path.join(d, "optiodom-diff") for d in cands
+                     if all(os.path.exists(os.path.join(d, "optiodom-diff", r)) for r in rels)), None)
+        if data is None:
+            print(import_common.skip_message("the OptiOdom evaluation (every run; --quick runs on the sample)",
+                                             "optiodom-diff"))
+            return 77
+    print("data: %s" % data, flush=True)
     os.makedirs(a.out, exist_ok=True)
     logs = os.path.join(a.out, "logs")
     os.makedirs(logs, exist_ok=True)
-    runs = {t: sorted(glob.glob(os.path.join(data, t, "*", "*_run-*.csv"))) for t in ("circular", "square", "ivanjko")}
     if a.quick:
-        sq = runs["square"]
-        runs = {"square": [sq[0], sq[3]], "circular": [runs["circular"][0], runs["circular"][3]],
-                "ivanjko": runs["ivanjko"][:2]}
+        runs = {t: [os.path.join(data, t, r + ".csv") for r in rs] for t, rs in QUICK.items()}
+        missing = [r for rs in runs.values() for r in rs if not os.path.isfile(r)]
+        if missing:
+            print("skipped: --quick needs %s (absent)" % ", ".join(missing))
+            return 77
+    else:
+        runs = {t: sorted(glob.glob(os.path.join(data, t, "*", "*_run-*.csv"))) for t in ("circular", "square", "ivanjko")}
     jitter = mocapJitter(runs["square"])
     if a.fix_sigma_xy == "auto":
         a.fix_sigma_xy = "%.6f" % jitter[0]

@@ -28,8 +28,11 @@ Written to OUT_DIR:
    summary.json  all of it, plus each run's excitation warnings, its set's metadata
                  `imarkers`, and the wheel_backlash check
    tables.md     the tables of docs/real-data.md
-Exit status: 0 on success, 77 when the data set is absent (../shared/data relative to the
-repository root), 2 on a bad option or a missing odoerr binary, 1 when a run fails.
+--data defaults to optiodom-diff in the data folder ($ODOERR_DATA, else ../shared/data from
+the repository root; import_common.data_dir()). It needs every run: the sample in tests/data
+is not used.
+Exit status: 0 on success, 77 when the data set is absent (the message names ODOERR_DATA),
+2 on a bad option or a missing odoerr binary, 1 when a run fails.
 """
 
 import argparse
@@ -41,6 +44,8 @@ import os
 import statistics
 import subprocess
 import sys
+
+import import_common
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 PATH_TYPES = ("circular", "square", "ivanjko")
@@ -264,7 +269,7 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("out_dir")
     ap.add_argument("--odoerr", default=os.path.join(ROOT, "build/host/tools/odoerr/odoerr"))
-    ap.add_argument("--data", default=os.path.join(ROOT, "..", "shared", "data", "optiodom-diff"))
+    ap.add_argument("--data", default=os.path.join(import_common.data_dir(), "optiodom-diff"))
     ap.add_argument("--threads", type=int, default=1)
     ap.add_argument("--nice", type=int, default=19)
     ap.add_argument("--min-kept", type=int, default=3,
@@ -281,8 +286,7 @@ def main():
         return 0
 
     if not os.path.isdir(args.data):
-        print("skipped: the OptiOdom data set is absent (looked for %s; it lives at ../shared/data/optiodom-diff "
-              "relative to the repository root)" % os.path.normpath(args.data))
+        print(import_common.skip_message("the OptiOdom loop", os.path.normpath(args.data)))
         sys.exit(77)
     if not (os.path.isfile(args.odoerr) and os.access(args.odoerr, os.X_OK)):
         die("no odoerr binary at %s (build it, or pass --odoerr BIN)" % args.odoerr, 2)
