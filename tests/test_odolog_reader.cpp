@@ -1,5 +1,6 @@
-// The odolog v1 reader: the simulator's own output round-trips, and every rule of the spec
-// is enforced with an error naming the line and the rule.
+// The odolog v1 reader (docs/odolog.md): the simulator's own output round-trips, and rules
+// are enforced with an error naming the line and the rule (every rule of the doc has a
+// case in tests/odolog/, run through odoerr replay).
 #include <gtest/gtest.h>
 
 #include "odoerr/sim/odolog.hpp"

@@ -1,4 +1,4 @@
-// The simulator's odolog v1 output follows the spec's lexical and ordering rules, and its
+// The simulator's odolog v1 output follows docs/odolog.md's lexical and ordering rules, and its
 // data reproduce the simulated drive (cumulative counts, 36 ranges, truth).
 #include <gtest/gtest.h>
 

@@ -25,7 +25,7 @@ So the raw odometry increment between consecutive ODOM lines of one anchored seg
 and the jump from the ODOM before a FLASER to the anchor after it is the SLAM correction,
 not motion: it is never turned into ticks.
 
-Mapping (format: ../shared/spec/odolog-v1.md):
+Mapping (format: docs/odolog.md):
 - odolog has no raw-pose odometry record, so each sub-step becomes the encoder ticks of
   an EQUIVALENT differential drive: `drive diff`, `param wheel_radius_m 0.0825`,
   `param ticks_per_rev 4096`, `param wheelbase_m 0.33` (declared constants, not a

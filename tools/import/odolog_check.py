@@ -8,8 +8,8 @@ Usage:
     odolog_check.py FILE --carmen-log LOG[.gz] [--path-tol 0.05]
 
 It shares no code with the importers or with the C++ reader (sim_host/src/odolog.cpp):
-it re-reads ../shared/spec/odolog-v1.md's rules on its own, so that a mistake in one
-place is not copied into the other.
+it re-reads the rules of docs/odolog.md on its own, so that a mistake in one place is
+not copied into the other.
 
 Format checks (every file):
 - the first non-comment record is `odolog 1` and appears only once;

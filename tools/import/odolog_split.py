@@ -8,7 +8,7 @@ The cut is the first truth record at or past FRACTION of the log's truth path le
 that has an enc record at the same time (the Intel importer writes one at every scan).
 Both parts keep the header records (meta, drive, param, laser, wall). The first part
 ends at the cut; the second starts there, with `init` at the truth pose of the cut (the
-original init's sigmas) and enc counts rebased to 0 0, as the odolog spec asks. A log
+original init's sigmas) and enc counts rebased to 0 0, as docs/odolog.md asks. A log
 without such a cut point is refused with a message.
 """
 import argparse

@@ -16,7 +16,7 @@ The rows already pair each mocap sample with the ticks of the same cycle (the so
 authors synchronised the two streams; the per-set *_metadata.csv trimming windows are
 therefore not needed and not read).
 
-Mapping (format: ../shared/spec/odolog-v1.md):
+Mapping (format: docs/odolog.md):
 - `drive diff` with the nominal robot of the README for every run: wheel diameter 0.084 m
   -> `param wheel_radius_m 0.042`; gear 43.7 x 64 ticks per motor revolution ->
   `param ticks_per_rev 2796.8` (ticks per WHEEL revolution); `param wheelbase_m 0.2`.

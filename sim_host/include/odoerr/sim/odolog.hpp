@@ -1,4 +1,4 @@
-// sim_host: reader of odolog v1 files (../shared/spec/odolog-v1.md). A file that breaks a
+// sim_host: reader of odolog v1 files (docs/odolog.md). A file that breaks a
 // rule is rejected with "FILE:LINE: rule"; the reader never guesses. Unknown record types
 // are skipped and counted.
 #pragma once

@@ -1,4 +1,4 @@
-// sim_host: writes a simulated drive as an odolog v1 file (../shared/spec/odolog-v1.md), so
+// sim_host: writes a simulated drive as an odolog v1 file (docs/odolog.md), so
 // any run can be replayed later by the same estimator or by other tools.
 #pragma once
 
