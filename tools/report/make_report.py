@@ -30,6 +30,7 @@ from plots import (BIN_ORDER, setup_matplotlib, png_uri, fig_trajectory,  # noqa
                    fig_heldout)
 from report_io import InputError, is_num, load_inputs, read_map_grid  # noqa: E402
 from map_misfit import map_misfit_section  # noqa: E402
+from alarms import cluster_alarms, summary as alarm_summary  # noqa: E402
 from discovery import discovery_sections  # noqa: E402
 from sections import (tests_section, ranking_section, heldout_table, excitation_section,  # noqa: E402
                       bins_table)
@@ -47,7 +48,8 @@ def build(args):
     rng = np.random.default_rng(0)
     walls = (d.get("map") or {}).get("walls") or []
     alarms = [a for a in ((d.get("cusum") or {}).get("alarms") or [])
-              if is_num(a.get("x")) and is_num(a.get("y"))]
+              if is_num(a.get("t")) and is_num(a.get("x")) and is_num(a.get("y"))]
+    clusters = cluster_alarms(alarms)
     has_truth = bool(len(traj["t"]) and np.isfinite(traj["truth_x"]).any() and np.isfinite(traj["truth_y"]).any())
     cps = [c for c in (d.get("change_points") or []) if isinstance(c, dict) and is_num(c.get("t"))]
     n_imgs = 0
@@ -102,10 +104,8 @@ def build(args):
     if len(traj["t"]):
         cap = ("The estimated path (blue) over the map's walls (black)"
                + (", with the true path dashed in orange" if has_truth else "; the log has no truth")
-               + ". " + (f"Triangles mark the {len(alarms)} CUSUM alarm(s), A1… in time order: places where the "
-                         "NIS drifted up (▲) or down (▼) for long enough to be a change, not noise."
-                         if alarms else "There were no CUSUM alarms: the NIS never drifted for long."))
-        s.append(figure(png_uri(plt, fig_trajectory(plt, traj, walls, alarms, has_truth)),
+               + ". " + alarm_summary(clusters, len(alarms)))
+        s.append(figure(png_uri(plt, fig_trajectory(plt, traj, walls, clusters, has_truth)),
                         "trajectory on the map", E(cap)))
         n_imgs += 1
         if has_truth:
@@ -120,7 +120,7 @@ def build(args):
 
     s.append("<h2 id='nis'>NIS per scan along the drive</h2>")
     if len(scans["t"]):
-        fig, n_out, n_good = fig_nis(plt, scans, alarms, cps)
+        fig, n_out, n_good = fig_nis(plt, scans, clusters, cps)
         s.append(figure(png_uri(plt, fig), "NIS per scan against distance",
                         E(f"Top: each dot is one scan's normalised innovation squared divided by its number "
                           f"of beams; it should scatter around 1 inside the green band. {n_out} of {n_good} "
@@ -128,7 +128,8 @@ def build(args):
                           f"point to a systematic error at that part of the drive. Below: the pose "
                           f"correction each scan made, in the robot frame; corrections that repeat with the "
                           f"same sign show what the odometry gets wrong (e.g. cross-track in every turn). "
-                          f"Dotted lines: CUSUM alarms."
+                          + (f"Dotted lines: the {len(clusters)} cluster(s) of CUSUM alarms at their first alarm, "
+                             f"a purple band to their last (A1… as on the map)." if clusters else "")
                           + (f" Orange: the {len(cps)} change point(s) C1… (line: most likely time; band: its "
                              f"interval; see Change points below)." if cps else ""))))
         n_imgs += 1

@@ -93,7 +93,30 @@ def map_limits(ax, walls, *xy):
     ax.set_ylabel("y (m)")
 
 
-def fig_trajectory(plt, traj, walls, alarms, has_truth):
+def alarm_stretches(t, x, y, clusters):
+    """The path of each cluster from its first alarm to its last (an alarm alone: nothing), as
+    line segments for one LineCollection, with the cluster's direction."""
+    segs, dirs = [], []
+    if len(t) < 2:
+        return segs, dirs
+    for c in clusters:
+        if c["t1"] <= c["t0"]:
+            continue
+        i0, i1 = np.searchsorted(t, [c["t0"], c["t1"]])
+        xs, ys = x[max(i0 - 1, 0):i1 + 1], y[max(i0 - 1, 0):i1 + 1]
+        f = np.isfinite(xs) & np.isfinite(ys)
+        if f.sum() >= 2:
+            segs.append(np.column_stack([xs[f], ys[f]]))
+            dirs.append(c["direction"])
+    return segs, dirs
+
+
+def fig_trajectory(plt, traj, walls, clusters, has_truth):
+    """The path on the map with the CUSUM alarms' clusters (alarms.cluster_alarms): each drawn
+    once, a triangle at its first alarm and the path its alarms cover thick underneath; only the
+    first alarms.LABELLED clusters carry a label."""
+    from matplotlib.collections import LineCollection
+    from alarms import LABELLED, label
     fig, ax = plt.subplots(figsize=(8.6, 6.4), layout="constrained")
     draw_walls(ax, walls)
     x, y = traj["x"], traj["y"]
@@ -105,15 +128,25 @@ def fig_trajectory(plt, traj, walls, alarms, has_truth):
         i0, i1 = np.argmax(f), len(f) - 1 - np.argmax(f[::-1])
         ax.plot(x[i1], y[i1], "s", color="#333333", ms=11, label="end", zorder=5)
         ax.plot(x[i0], y[i0], "o", color=C_OK, ms=7, label="start", zorder=5.5)
-    for k, (sym, lab, col) in enumerate((("^", "CUSUM alarm: NIS rising", C_BAD),
-                                         ("v", "CUSUM alarm: NIS falling", "#7b3fa0"))):
-        sel = [a for a in alarms if (a.get("direction") == "down") == (k == 1)]
+    style = {"up": ("^", "alarm cluster: NIS rising", C_BAD), "down": ("v", "alarm cluster: NIS falling", "#7b3fa0")}
+    segs, dirs = alarm_stretches(traj["t"], x, y, clusters)
+    if segs:
+        ax.add_collection(LineCollection(segs, colors=[style[d][2] for d in dirs], linewidths=7, alpha=0.28,
+                                         capstyle="round", joinstyle="round", zorder=2.5,
+                                         label="path during a cluster"))
+    for d in ("up", "down"):
+        sel = [c for c in clusters if c["direction"] == d]
         if sel:
-            ax.scatter([a["x"] for a in sel], [a["y"] for a in sel], marker=sym, s=150, color=col,
+            sym, lab, col = style[d]
+            ax.scatter([c["x"] for c in sel], [c["y"] for c in sel], marker=sym, s=150, color=col,
                        edgecolor="white", linewidth=1.2, zorder=6, label=lab)
-    for i, a in enumerate(alarms):
-        ax.annotate(f"A{i + 1}", (a["x"], a["y"]), xytext=(7, 7), textcoords="offset points",
-                    fontsize=9, fontweight="bold", color="#222222", zorder=7)
+    for k, c in enumerate(clusters[:LABELLED]):
+        ax.annotate(label(k, c), (c["x"], c["y"]), xytext=(8, 7), textcoords="offset points",
+                    fontsize=9, fontweight="bold", color="#222222", zorder=7,
+                    bbox=dict(boxstyle="round,pad=0.15", fc="white", ec="none", alpha=0.8))
+    if len(clusters) > LABELLED:
+        ax.text(0.99, 0.01, f"{len(clusters)} alarm clusters; the first {LABELLED} labelled",
+                transform=ax.transAxes, ha="right", va="bottom", fontsize=8, color="#444444", zorder=7)
     map_limits(ax, walls, (x, y))
     ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
     return fig
@@ -152,7 +185,29 @@ def rolling_mean(v, w):
         return np.where(n > w / 3, s / np.maximum(n, 1), np.nan)
 
 
-def fig_nis(plt, scans, alarms, cps=()):
+def mark_alarm_clusters(axs, clusters, to_x, label_ax):
+    """On every axis, each cluster of CUSUM alarms once: a dotted line at its first alarm and a
+    pale band to its last, all in one collection per axis (their number does not grow with
+    the alarms'); the first alarms.LABELLED clusters labelled on label_ax."""
+    from matplotlib.collections import LineCollection, PolyCollection
+    from alarms import LABELLED, label
+    x0 = to_x(np.array([c["t0"] for c in clusters], float))
+    x1 = to_x(np.array([c["t1"] for c in clusters], float))
+    wide = x1 > x0
+    for a in axs:
+        tr = a.get_xaxis_transform()              # x in data, y in axes fraction
+        if wide.any():
+            a.add_collection(PolyCollection([[(p, 0), (q, 0), (q, 1), (p, 1)] for p, q in zip(x0[wide], x1[wide])],
+                                            facecolors="#7b3fa0", alpha=0.10, lw=0, zorder=0, transform=tr),
+                             autolim=False)
+        a.add_collection(LineCollection([[(p, 0), (p, 1)] for p in x0], colors="#7b3fa0", linewidths=0.9,
+                                        linestyles=":", zorder=0, transform=tr), autolim=False)
+    for k, c in enumerate(clusters[:LABELLED]):
+        label_ax.text(x0[k], 1.005, label(k, c), color="#7b3fa0", fontsize=8.5, va="bottom", ha="center",
+                      fontweight="bold", transform=label_ax.get_xaxis_transform(), clip_on=False)
+
+
+def fig_nis(plt, scans, clusters, cps=()):
     dist, dof = scans["dist_m"], scans["dof"]
     with np.errstate(invalid="ignore", divide="ignore"):
         good = dof > 0
@@ -179,13 +234,8 @@ def fig_nis(plt, scans, alarms, cps=()):
             ax.text(0.995, 0.98, f"{n_clip} scan(s) above {top:.2g} not shown", transform=ax.transAxes,
                     ha="right", va="top", fontsize=8, color=C_BAD)
     ax.set_ylabel("NIS per beam (nis_sum / dof)")
-    if alarms and len(dist) > 1:
-        t = scans["t"]
-        for i, a in enumerate(alarms):
-            da = float(np.interp(a["t"], t, dist))
-            for axx in axs:
-                axx.axvline(da, color="#7b3fa0", lw=0.9, ls=":", zorder=0)
-            ax.text(da, ax.get_ylim()[1], f" A{i + 1}", color="#7b3fa0", fontsize=8.5, va="top")
+    if clusters and len(dist) > 1:
+        mark_alarm_clusters(axs, clusters, lambda t: np.interp(t, scans["t"], dist), ax)
     if cps and len(dist) > 1:
         mark_change_points(axs, cps, lambda t: float(np.interp(t, scans["t"], dist)), ax)
     ax.legend(loc="upper left", ncol=3 if cps else 4, frameon=True, framealpha=0.85)
