@@ -31,6 +31,7 @@ from plots import (BIN_ORDER, setup_matplotlib, png_uri, fig_trajectory,  # noqa
 from report_io import InputError, is_num, load_inputs, read_map_grid  # noqa: E402
 from map_misfit import map_misfit_section  # noqa: E402
 from alarms import cluster_alarms, summary as alarm_summary  # noqa: E402
+from headline import headline_html  # noqa: E402
 from discovery import discovery_sections  # noqa: E402
 from sections import (tests_section, ranking_section, heldout_table, excitation_section,  # noqa: E402
                       bins_table)
@@ -60,10 +61,10 @@ def build(args):
         "consistent": "The filter's errors are the size and shape its model predicts: the odometry model "
                       "explains this log.",
         "inconsistent": "The errors are larger or more structured than the model allows: something physical "
-                        "is missing from the odometry or laser model. The effect ranking below lists the "
-                        "likely causes.",
+                        "is missing from the odometry or laser model, or the map is not the building. The "
+                        "sections below say where: the effect ranking, the map errors, what discovery finds "
+                        "left unexplained.",
     }.get(verdict, "")
-    sig_names = [r["effect"] for r in d["ranking"] if r.get("significant")]
     dist_total = float(np.nanmax(scans["dist_m"])) if len(scans["dist_m"]) and np.isfinite(scans["dist_m"]).any() else None
     n_used = int((beams["status"] == "used").sum())
     s.append("<h1>odoerr diagnose report</h1>")
@@ -74,20 +75,9 @@ def build(args):
              f"<tr><td>data</td><td>{len(scans['t'])} scans, {len(beams['t'])} predicted beams "
              f"({n_used} used), {fnum(dist_total, 4, 'm') if dist_total is not None else '—'} driven</td></tr>"
              "</tbody></table>")
-    s.append(f"<p><span class='verdict {vcls}'>{E(verdict.upper())}</span></p><p class='cap'>{E(vtext)}</p>")
-    if sig_names:
-        s.append(f"<p class='cap'><b>Significant effects, best first:</b> {E(', '.join(sig_names))}.</p>")
-    else:
-        s.append("<p class='cap'>No candidate effect improves the model significantly.</p>")
-    u = d.get("unexplained")
-    if isinstance(u, dict) and u.get("features"):
-        s.append("<p class='cap'><b>Left unexplained:</b> " + E("; ".join(
-            str(f.get("words") or f.get("name")) for f in u["features"] if isinstance(f, dict)))
-            + " <a href='#unexplained'>(details)</a></p>")
-    if cps:
-        s.append(f"<p class='cap'><b>{len(cps)} change point(s):</b> " + E("; ".join(
-            f"t = {fnum(c['t'], 4)} s: {c.get('what') or 'the drive parameters change'}" for c in cps))
-            + " <a href='#changes'>(details)</a></p>")
+    s.append(f"<p><span class='verdict {vcls}'>{E(verdict.upper())}</span></p>")
+    s.append(headline_html(d))
+    s.append(f"<p class='cap'>{E(vtext)}</p>")
     s.append("<nav><a href='#tests'>Tests</a><a href='#trajectory'>Trajectory</a><a href='#nis'>NIS</a>"
              "<a href='#residuals'>Residual map</a><a href='#map-misfit'>Map errors</a><a href='#beams'>Per beam</a><a href='#bins'>Bins</a>"
              "<a href='#ranking'>Effects</a><a href='#unexplained'>Unexplained</a><a href='#changes'>Change points</a>"
