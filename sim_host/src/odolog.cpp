@@ -48,7 +48,9 @@ struct Parser {
     char* end = nullptr;
     errno = 0;
     const double v = std::strtod(tok.c_str(), &end);
-    if (end == tok.c_str() || *end != '\0') return fail(std::string(what) + ": '" + tok + "' is not a number");
+    // strtod also reads C hexadecimal floats (0x1p-3); the format's numbers are decimal.
+    if (end == tok.c_str() || *end != '\0' || tok.find_first_of("xX") != std::string::npos)
+      return fail(std::string(what) + ": '" + tok + "' is not a number");
     if (!std::isfinite(v)) return fail(std::string(what) + ": '" + tok + "' is not a finite number");
     *out = v;
     return true;
