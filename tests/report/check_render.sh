@@ -5,10 +5,11 @@
 # decoded (complete and naturalWidth > 0) and there are at least MIN_IMGS of them (default 5).
 # With REQUIRE_IDS="a b ...", each id must be an element of the rendered DOM (the report's
 # sections: e.g. "tests unexplained changes auto"), and with MIN_ALT="TEXT:N" at least N images
-# whose alt text starts with TEXT must have decoded.
+# whose alt text starts with TEXT must have decoded (several: "TEXT:N|TEXT2:M").
 # Also takes a screenshot at a laptop's width (1366 px; SHOT_HEIGHT, default 2400) and checks
 # it is a non-empty PNG; with SCREENSHOT_PNG it is kept there, otherwise it goes to a temporary
-# directory that is removed.
+# directory that is removed. One browser start does both (--dump-dom with --screenshot): the
+# probe's output is hidden (display:none), so the screenshot shows the page as it is.
 #
 # Browser: $CHROMIUM if set, else /usr/bin/chromium, else chromium / chromium-browser on PATH.
 # Exit: 0 rendered fine; 1 a check failed (the reason is printed); 2 bad usage or unreadable
@@ -47,10 +48,12 @@ window.addEventListener("load", function () {
   }
   var a = document.createElement("pre");
   a.id = "render-alts";
+  a.style.display = "none";
   a.textContent = alts.map(function (x) { return "ALT:" + x; }).join(String.fromCharCode(10));
   document.body.appendChild(a);
   var m = document.createElement("pre");
   m.id = "render-probe";
+  m.style.display = "none";
   m.textContent = "RENDER_OK imgs=" + imgs.length + " broken=" + broken + " bad=[" + bad.join(",") + "]";
   document.body.appendChild(m);
 });
@@ -82,7 +85,10 @@ run_chromium() {  # extra flags...; stdout is the browser's
     --virtual-time-budget="$budget_ms" "$@" 2>>"$work/chromium.log"
 }
 
-run_chromium --dump-dom "file://$work/probe.html" > "$work/dom.html"
+shot=${shot_out:-$work/shot.png}
+rm -f -- "$shot"
+run_chromium --window-size=1366,${SHOT_HEIGHT:-2400} --screenshot="$shot" --dump-dom "file://$work/probe.html" \
+  > "$work/dom.html"
 rc=$?
 marker=$(grep -o 'RENDER_OK imgs=[0-9]* broken=[0-9]* bad=\[[0-9,]*\]' "$work/dom.html" | tail -n 1)
 if [ -z "$marker" ]; then
@@ -109,13 +115,16 @@ for id in ${REQUIRE_IDS:-}; do
   fi
 done
 if [ -n "${MIN_ALT:-}" ]; then
-  alt_text=${MIN_ALT%:*}; alt_min=${MIN_ALT##*:}
-  n_alt=$(grep -o "ALT:$alt_text" "$work/dom.html" | wc -l)
-  echo "check_render: $n_alt decoded image(s) with alt \"$alt_text...\""
-  if [ "$n_alt" -lt "$alt_min" ]; then
-    echo "check_render: FAIL: $n_alt image(s) with alt \"$alt_text...\", expected at least $alt_min" >&2
-    fail=1
-  fi
+  IFS='|' read -r -a alt_specs <<<"$MIN_ALT"
+  for spec in "${alt_specs[@]}"; do
+    alt_text=${spec%:*}; alt_min=${spec##*:}
+    n_alt=$(grep -o "ALT:$alt_text" "$work/dom.html" | wc -l)
+    echo "check_render: $n_alt decoded image(s) with alt \"$alt_text...\""
+    if [ "$n_alt" -lt "$alt_min" ]; then
+      echo "check_render: FAIL: $n_alt image(s) with alt \"$alt_text...\", expected at least $alt_min" >&2
+      fail=1
+    fi
+  done
 fi
 # The page itself must not reach out: no http(s) or protocol-relative src/href/url().
 if grep -Eqi "(src|href)=[\"']?(https?:)?//|url\([\"']?(https?:)?//" "$page"; then
@@ -124,9 +133,6 @@ if grep -Eqi "(src|href)=[\"']?(https?:)?//|url\([\"']?(https?:)?//" "$page"; th
   fail=1
 fi
 
-shot=${shot_out:-$work/shot.png}
-rm -f -- "$shot"
-(cd "$work" && run_chromium --window-size=1366,${SHOT_HEIGHT:-2400} --screenshot="$shot" "file://$work/page.html" >/dev/null)
 if [ ! -s "$shot" ] || [ "$(head -c 8 "$shot" | od -An -tx1 | tr -d ' \n')" != "89504e470d0a1a0a" ]; then
   echo "check_render: FAIL: no screenshot PNG was written" >&2
   tail -n 20 "$work/chromium.log" >&2

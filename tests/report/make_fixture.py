@@ -2,7 +2,7 @@
 """Write a realistic fixture of what `odoerr diagnose` puts in its output directory.
 
     make_fixture.py OUTDIR [--beams N] [--drive diff|sync] [--seed S]
-                           [--no-truth] [--no-heldout] [--no-alarms] [--no-discovery]
+                           [--no-truth] [--no-heldout] [--no-alarms] [--no-discovery] [--alarms N]
 
 Files written (the contract that tools/report/make_report.py reads):
   diagnose.json, scans.csv, beams.csv, trajectory.csv,
@@ -15,6 +15,10 @@ walls. Two effects are planted so that the plots have something to show: wall 5 
 further along its normal than the map says (wall_offset), and the tyres slide sideways in
 turns (turn_slip, a cross-track correction growing with v*w). Everything else is noise.
 Only numpy is used; the numbers are made up but consistent with each other.
+
+CUSUM alarms: three single ones by default; with --alarms N (N >= 7) N of them in seven bursts
+at consecutive scans (0.1 s and 5 cm apart), as a drive whose NIS stays high for a while raises
+them: the report draws seven clusters and labels five. The other files do not change with it.
 """
 import argparse
 import json
@@ -154,6 +158,20 @@ def write_csv(path, header, cols, nds):
             f.write("\n")
 
 
+def alarm_bursts(n):
+    """(fraction of the drive, direction, alarms at consecutive scans) for n alarms: the three
+    single alarms of old for n = 3, else seven bursts whose sizes add up to n (n >= 7)."""
+    if n == 3:
+        return [(0.31, "up", 1), (0.57, "down", 1), (0.74, "up", 1)]
+    if n < 7:
+        raise SystemExit("make_fixture: --alarms takes 3 or at least 7")
+    at = [(0.08, "up"), (0.22, "up"), (0.31, "up"), (0.45, "up"), (0.57, "down"), (0.74, "up"), (0.88, "up")]
+    w = np.array([2, 5, 3, 12, 7, 6, 1], float)
+    m = np.maximum(1, np.floor(n * w / w.sum())).astype(int)
+    m[3] += n - m.sum()
+    return [(f, d, int(k)) for (f, d), k in zip(at, m)]
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("outdir")
@@ -163,6 +181,8 @@ def main():
     ap.add_argument("--no-truth", action="store_true")
     ap.add_argument("--no-heldout", action="store_true")
     ap.add_argument("--no-alarms", action="store_true")
+    ap.add_argument("--alarms", type=int, default=3,
+                    help="CUSUM alarms: 3 single ones (default), or N >= 7 in seven bursts")
     ap.add_argument("--no-discovery", action="store_true",
                     help="a diagnose.json of an older odoerr: no unexplained / change_points / auto, no "
                          "discovery CSVs, no nested tests, no map_misfit")
@@ -413,10 +433,12 @@ def main():
     }
     alarms = []
     if not a.no_alarms:
-        for f, d in ((0.31, "up"), (0.57, "down"), (0.74, "up")):
-            j = si[int(f * (ns - 1))]
-            alarms.append({"t": round(float(t[j]), 3), "x": round(float(ex[j]), 3),
-                           "y": round(float(ey[j]), 3), "direction": d})
+        for f, d, m in alarm_bursts(a.alarms):
+            k0 = int(f * (ns - 1))
+            for k in range(k0, min(k0 + m, ns)):
+                j = si[k]
+                alarms.append({"t": round(float(t[j]), 3), "x": round(float(ex[j]), 3),
+                               "y": round(float(ey[j]), 3), "direction": d})
 
     verdict = "inconsistent" if not (tests["nis_band"][0] <= nis_mean <= tests["nis_band"][1]) \
         or tests["ljung_box"]["p_value"] < 0.01 else "consistent"

@@ -1,10 +1,15 @@
 #!/usr/bin/env bash
 # test_report.sh: end-to-end test of tools/report/make_report.py and tests/report/check_render.sh.
 #
-#  (a) make a fixture of odoerr diagnose's output with make_fixture.py (100k beams);
-#  (b) make_report.py writes report.html from it;
+#  (a) make a fixture of odoerr diagnose's output with make_fixture.py (100k beams, 274 CUSUM
+#      alarms in seven bursts);
+#  (b) make_report.py writes report.html from it; its headline names the effects, the region
+#      where the map is wrong and what is left unexplained, before what was not found; the
+#      alarms are said as 274 in 7 clusters, 5 labelled (test_alarms_headline.py checks the
+#      figures' labels and the headline's rules without a browser);
 #  (c) check_render.sh passes on it (Chromium decodes every image, >= 5 images);
-#  (d) with one image's data URI corrupted, check_render.sh fails;
+#  (d) with one image's data URI corrupted, a section asked for that is not there and more
+#      images asked for than the page has, check_render.sh fails and names all three;
 #  (e) make_report.py fails with a message naming the file when diagnose.json is missing,
 #      and likewise for a malformed diagnose.json / scans.csv / beams.csv;
 #  (f) the optional parts may be absent: no truth, heldout null, no alarms, sync drive;
@@ -41,7 +46,7 @@ expect_error() {
 }
 
 # (a) fixture
-if "$PY" "$fixture" "$tmp/full" --beams 100000 --seed 1 2>"$tmp/fixture.log"; then
+if "$PY" "$fixture" "$tmp/full" --beams 100000 --seed 1 --alarms 274 2>"$tmp/fixture.log"; then
   ok "fixture: $(cat "$tmp/fixture.log")"
 else
   bad "fixture: $(cat "$tmp/fixture.log")"; echo "report: $pass passed, $fail failed"; exit 1
@@ -65,21 +70,37 @@ if [ -s "$page" ]; then
   fi
 fi
 
+# The headline and the alarms, in the page's words (the rules themselves: test_alarms_headline.py).
+# headline FILE: the text of the page's headline paragraph, tags removed.
+headline() { "$PY" -c 'import re,sys,html; m=re.search(r"<p class=.headline. id=.headline.>(.*?)</p>", open(sys.argv[1], encoding="utf-8").read())
+print(html.unescape(re.sub(r"<[^>]+>", "", m.group(1))) if m else "NO HEADLINE")' "$1"; }
+if [ -s "$page" ]; then
+  h=$(headline "$page")
+  want="Found: named effects: wall_offset, turn_slip, range_bias; 1 region where the map is wrong: R1 at (10.12, 4.99) m, 4,123 beams, short — something the map lacks; structure no catalogue effect explains: the robot drifts 1.15 cm per m"
+  if [[ "$h" == "$want"* ]] && [[ "$h" == *"and 1 more term; 1 change point at t = 76.8 s." ]]; then
+    ok "headline: the effects, the map region and the unexplained first: $h"
+  else bad "headline: expected it to start with [$want]: $h"; fi
+  if out=$("$PY" "$here/test_alarms_headline.py" 2>&1); then ok "$(tail -n 1 <<<"$out")"
+  else bad "test_alarms_headline.py: $(grep FAIL <<<"$out" | head -n 5)"; fi
+  cap="274 CUSUM alarm(s) in 7 cluster(s)"
+  if grep -qF "$cap" "$page" && grep -qF "the first 5 are labelled A1…A5 with their number of alarms" "$page" \
+     && grep -qF "The largest, A4, holds 94 alarms" "$page" && grep -qF "Dotted lines: the 7 cluster(s) of CUSUM alarms" "$page"; then
+    ok "alarms: 274 in 7 clusters, 5 labelled, the largest named, in the captions"
+  else bad "alarms: the captions do not say [$cap], 5 labelled and the largest"; fi
+fi
+
 # (c) renders in Chromium
 have_browser=1
-if [ -s "$page" ]; then
-  out=$(REQUIRE_IDS="tests ranking unexplained changes auto heldout map-misfit" MIN_IMGS=12 \
-        MIN_ALT="partial residual against:2" bash "$check" "$page" 2>&1); rc=$?
-  if [ "$rc" -eq 0 ]; then   # the map's figure decodes, found by its alt text
-    out2=$(REQUIRE_IDS="map-misfit" MIN_ALT="map with the residual grid and the regions:1" \
-           bash "$check" "$page" 2>&1) || { rc=1; out="$out2"; }
-  fi
+if [ -s "$page" ]; then   # the map's figure decodes too, found by its alt text
+  out=$(REQUIRE_IDS="headline tests ranking unexplained changes auto heldout map-misfit" MIN_IMGS=12 \
+        MIN_ALT="partial residual against:2|map with the residual grid and the regions:1" \
+        bash "$check" "$page" 2>&1); rc=$?
   if [ "$rc" -eq 77 ]; then have_browser=0; skipped=1; echo "skip: $out"
   elif [ "$rc" -eq 0 ]; then ok "check_render on the report: $(grep RENDER_OK <<<"$out")"
   else bad "check_render on the report (exit $rc): $out"; fi
 fi
 
-# (d) a corrupted image must be caught
+# (d) a corrupted image, a missing section and too few images must be caught (one browser run: all named)
 if [ "$have_browser" -eq 1 ] && [ -s "$page" ]; then
   # The third image's PNG signature and header are replaced by bytes that are not a PNG.
   "$PY" - "$page" "$tmp/broken.html" <<'EOF'
@@ -93,22 +114,21 @@ j = i + len(key)
 s = s[:j] + "AAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAA" + s[j + 32:]
 open(sys.argv[2], "w", encoding="utf-8").write(s)
 EOF
-  out=$(bash "$check" "$tmp/broken.html" 2>&1); rc=$?
+  out=$(REQUIRE_IDS="unexplained no-such-section" MIN_IMGS=13 bash "$check" "$tmp/broken.html" 2>&1); rc=$?
   if [ "$rc" -ne 0 ] && [ "$rc" -ne 77 ] && grep -q 'broken=1' <<<"$out"; then
     ok "check_render fails on a corrupted image (exit $rc): $(grep -m1 FAIL <<<"$out")"
   else
     bad "check_render did not fail on a corrupted image (exit $rc): $out"
   fi
-  # A page without a required section fails.
-  out=$(REQUIRE_IDS="unexplained no-such-section" bash "$check" "$page" 2>&1); rc=$?
-  if [ "$rc" -eq 1 ] && grep -q 'no element with id="no-such-section"' <<<"$out"; then
+  # The section that is not there is named, the one that is there is not.
+  if [ "$rc" -eq 1 ] && grep -q 'no element with id="no-such-section"' <<<"$out" \
+     && ! grep -q 'id="unexplained"' <<<"$out"; then
     ok "check_render fails on a missing section"
   else bad "check_render on a missing section (exit $rc): $out"; fi
-  # A page with too few images fails too.
-  printf '<!DOCTYPE html><html><body><p>no figures</p></body></html>\n' > "$tmp/empty.html"
-  out=$(bash "$check" "$tmp/empty.html" 2>&1); rc=$?
-  if [ "$rc" -eq 1 ] && grep -q 'only 0 image' <<<"$out"; then ok "check_render fails on a page without images"
-  else bad "check_render on a page without images (exit $rc): $out"; fi
+  # A page with fewer images than asked for fails too.
+  if [ "$rc" -eq 1 ] && grep -q 'only 12 image(s), expected at least 13' <<<"$out"; then
+    ok "check_render fails on a page with too few images"
+  else bad "check_render on a page with too few images (exit $rc): $out"; fi
 fi
 
 # (e) missing and malformed inputs
@@ -246,6 +266,10 @@ fi
 if [ -s "$tmp/old/report.html" ]; then
   expect_in "an older diagnose.json: the map section says not run" "$tmp/old/report.html" \
     '<h2 id="map-misfit">Where the map is wrong</h2>' 'Not run: diagnose.json has no "map_misfit"'
+  h=$(headline "$tmp/old/report.html")
+  if [[ "$h" == "Found: named effects: "* ]] && [[ "$h" != *map* ]] && [[ "$h" != *unexplained* ]]; then
+    ok "an older diagnose.json: the headline names the effects, says nothing of what was not run"
+  else bad "an older diagnose.json: headline: $h"; fi
 fi
 mkdir -p "$tmp/noregion" && cp "$tmp/full/"*.csv "$tmp/noregion/"
 "$PY" - "$tmp/full/diagnose.json" "$tmp/noregion/diagnose.json" <<'EOF3'
@@ -261,6 +285,11 @@ if out=$("$PY" "$report" "$tmp/noregion" 2>&1); then
   expect_in "no region: said in words ($out)" "$tmp/noregion/report.html" \
     'No region: the ranges agree with the map everywhere it was seen.' "$cells cells were tested" '4.11' \
     'alt="map with the residual grid'
+  h=$(headline "$tmp/noregion/report.html")
+  if [[ "$h" == "Found: named effects: wall_offset, turn_slip, range_bias; structure"* ]] \
+     && [[ "$h" == *". The ranges agree with the map everywhere it was seen." ]] && [[ "$h" != *"map is wrong"* ]]; then
+    ok "no region: the headline says the map agrees, after what was found"
+  else bad "no region: headline: $h"; fi
 else bad "no region: $out"; fi
 mkdir -p "$tmp/nogrid" && cp "$tmp/full/"{scans,beams,trajectory}.csv "$tmp/full/diagnose.json" "$tmp/nogrid/"
 if out=$("$PY" "$report" "$tmp/nogrid" 2>&1); then
