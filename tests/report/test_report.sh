@@ -82,9 +82,9 @@ if [ -s "$page" ]; then
   else bad "headline: expected it to start with [$want]: $h"; fi
   if out=$("$PY" "$here/test_alarms_headline.py" 2>&1); then ok "$(tail -n 1 <<<"$out")"
   else bad "test_alarms_headline.py: $(grep FAIL <<<"$out" | head -n 5)"; fi
-  cap="274 CUSUM alarm(s) in 7 cluster(s)"
+  cap="274 CUSUM alarms in 7 clusters"
   if grep -qF "$cap" "$page" && grep -qF "the first 5 are labelled A1…A5 with their number of alarms" "$page" \
-     && grep -qF "The largest, A4, holds 94 alarms" "$page" && grep -qF "Dotted lines: the 7 cluster(s) of CUSUM alarms" "$page"; then
+     && grep -qF "The largest, A4, holds 94 alarms" "$page" && grep -qF "Dotted lines: the 7 clusters of CUSUM alarms" "$page"; then
     ok "alarms: 274 in 7 clusters, 5 labelled, the largest named, in the captions"
   else bad "alarms: the captions do not say [$cap], 5 labelled and the largest"; fi
 fi

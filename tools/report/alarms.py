@@ -40,21 +40,29 @@ def label(k, c):
     return f"A{k + 1}" + (f" ×{c['n']}" if c["n"] > 1 else "")
 
 
+def plural(n, word):
+    return f"{n:,} {word}{'' if n == 1 else 's'}"
+
+
 def summary(clusters, n_alarms):
-    """One sentence on the alarms and their clusters for a caption."""
+    """Two sentences on the alarms and their clusters for a caption."""
     if not n_alarms:
         return "There were no CUSUM alarms: the NIS never drifted for long."
     nc = len(clusters)
     big = max(range(nc), key=lambda k: clusters[k]["n"])
     cb = clusters[big]
-    s = (f"{n_alarms:,} CUSUM alarm(s) in {nc} cluster(s) (an alarm less than {GAP_S:g} s and {JUMP_M:g} m "
+    s = (f"{plural(n_alarms, 'CUSUM alarm')} in {plural(nc, 'cluster')} (an alarm less than {GAP_S:g} s and {JUMP_M:g} m "
          f"after the previous one, in the same direction, joins its cluster): places where the NIS drifted up (▲) "
          f"or down (▼) for long enough to be a change, not noise. Each cluster is drawn once, at its first alarm, "
          f"with the stretch of drive its alarms cover")
     if nc > LABELLED:
         s += f"; the first {LABELLED} are labelled A1…A{LABELLED} with their number of alarms"
-    else:
+    elif nc > 1:
         s += "; labelled A1… in time order with their number of alarms"
-    if cb["n"] > 1:
+    else:
+        s += ", labelled A1 with its number of alarms"
+    if cb["n"] > 1 and nc > 1:
         s += (f". The largest, A{big + 1}, holds {cb['n']:,} alarms from t = {cb['t0']:.1f} to {cb['t1']:.1f} s")
+    elif cb["n"] > 1:
+        s += f", from t = {cb['t0']:.1f} to {cb['t1']:.1f} s"
     return s + "."

@@ -30,7 +30,7 @@ from plots import (BIN_ORDER, setup_matplotlib, png_uri, fig_trajectory,  # noqa
                    fig_heldout)
 from report_io import InputError, is_num, load_inputs, read_map_grid  # noqa: E402
 from map_misfit import map_misfit_section  # noqa: E402
-from alarms import cluster_alarms, summary as alarm_summary  # noqa: E402
+from alarms import cluster_alarms, plural as alarm_plural, summary as alarm_summary  # noqa: E402
 from headline import headline_html  # noqa: E402
 from discovery import discovery_sections  # noqa: E402
 from sections import (tests_section, ranking_section, heldout_table, excitation_section,  # noqa: E402
@@ -118,8 +118,8 @@ def build(args):
                           f"point to a systematic error at that part of the drive. Below: the pose "
                           f"correction each scan made, in the robot frame; corrections that repeat with the "
                           f"same sign show what the odometry gets wrong (e.g. cross-track in every turn). "
-                          + (f"Dotted lines: the {len(clusters)} cluster(s) of CUSUM alarms at their first alarm, "
-                             f"a purple band to their last (A1… as on the map)." if clusters else "")
+                          + (f"Dotted lines: the {alarm_plural(len(clusters), 'cluster')} of CUSUM alarms at their "
+                             f"first alarm, a purple band to their last (A1… as on the map)." if clusters else "")
                           + (f" Orange: the {len(cps)} change point(s) C1… (line: most likely time; band: its "
                              f"interval; see Change points below)." if cps else ""))))
         n_imgs += 1
