@@ -6,12 +6,13 @@ cd "$(dirname "$0")/.."
 RUNS="${1:-100}"
 bash scripts/deps.sh
 cmake --preset host >/dev/null
-cmake --build --preset host --target odoerr -j 2
+# Only the experiment's binary (odoerr-paper: `odoerr paper` alone, linking odoerr::paper).
+cmake --build --preset host --target odoerr-paper -j 2 >/dev/null
 # The paper's Observable Filter, then odoerr's maximum-likelihood K estimator (--of ml,
 # docs/nonsystematic.md) on the same drives (the same seeds), side by side.
 for drive in sync diff; do
-  ./build/host/tools/odoerr/odoerr paper --drive "$drive" --runs "$RUNS" --out "out/paper-$drive"
-  ./build/host/tools/odoerr/odoerr paper --drive "$drive" --runs "$RUNS" --of ml --out "out/paper-$drive-ml"
+  ./build/host/tools/odoerr/odoerr-paper --drive "$drive" --runs "$RUNS" --out "out/paper-$drive"
+  ./build/host/tools/odoerr/odoerr-paper --drive "$drive" --runs "$RUNS" --of ml --out "out/paper-$drive-ml"
 done
 # --paired: each quantity's end error, ml over the OF's run by run, with a 95 % interval
 # (needs 10 runs or more).

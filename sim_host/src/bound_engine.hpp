@@ -16,6 +16,7 @@
 #include <nlohmann/json.hpp>
 
 #include "odoerr/akf.hpp"
+#include "odoerr/fw/paper_setup.hpp"
 #include "odoerr/laser.hpp"
 #include "odoerr/sim/bound.hpp"
 #include "bound_joint.hpp"
@@ -308,5 +309,20 @@ bool runBound(const Problem<ModelT>& pb, const MapT& map, const LaserGeometry<do
   }
   return true;
 }
+
+/// The filter's prior (fw::makeEstimatorOn's) with the given pose sigmas.
+template <typename ModelT>
+typename ModelT::StateMat priorCovariance(const FilterSetup& setup, double sxy_x, double sxy_y, double sth) {
+  typename ModelT::StateVec sig;
+  sig.setConstant(setup.sigma_scale);
+  sig[PoseIdx::kX] = sxy_x;
+  sig[PoseIdx::kY] = sxy_y;
+  sig[PoseIdx::kTheta] = sth;
+  if constexpr (std::is_same_v<typename ModelT::Drive, SyncDrive<double>>) {
+    sig[ModelT::kDriveOffset + SyncDrive<double>::kETheta] = setup.sigma_e_theta;
+  }
+  return sig.cwiseAbs2().asDiagonal();
+}
+
 
 }  // namespace odoerr::sim::bound_detail

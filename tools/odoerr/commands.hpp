@@ -9,6 +9,10 @@ namespace odoerr {
 /// Every family below, in the order `odoerr --help` lists them.
 void registerCommands(CLI::App& app, cli::Commands& cmds);
 
+/// paper (cmd_paper.cpp): its options added to `sub`; returns what runs it once parsed. The
+/// stand-alone odoerr-paper adds them to its app itself.
+std::function<int()> addPaperOptions(CLI::App* sub);
+void registerPaperCommand(CLI::App& app, cli::Commands& cmds);
 /// sim, tape, hal-tape (cmd_sim.cpp).
 void registerSimCommands(CLI::App& app, cli::Commands& cmds);
 /// map compile (cmd_map_compile.cpp).
