@@ -44,6 +44,50 @@ using cli::writeFile;
 
 std::string reportScript() { return cli::scriptPath("ODOERR_REPORT_SCRIPT", ODOERR_REPORT_SCRIPT); }
 
+/// The held-out comparison of `with` in one line: the pose error before and after, and the
+/// paired z over the blocks (diagnose's JSON "heldout" or an "auto" step's).
+void printHeldout(const char* what, const nlohmann::ordered_json& h) {
+  const auto& b = h["before"]["pose_rmse_m"];
+  const auto& a = h["after"]["pose_rmse_m"];
+  if (!b.is_number() || !a.is_number()) return;
+  std::fprintf(stderr, "  %s: held-out pose error %.1f -> %.1f mm", what, 1e3 * b.get<double>(), 1e3 * a.get<double>());
+  if (h.contains("paired") && h["paired"]["pose_err_m"].is_object() && h["paired"]["pose_err_m"]["change_z"].is_number())
+    std::fprintf(stderr, " (paired z %.1f over %d blocks)", h["paired"]["pose_err_m"]["change_z"].get<double>(),
+                 h["paired"]["pose_err_m"]["blocks"].get<int>());
+  std::fprintf(stderr, "\n");
+}
+
+/// What diagnose found beyond the verdict line: each effect `--with auto` kept, or the
+/// held-out comparison of `--with`, and the regions where the map is wrong.
+void printDiagnoseFindings(const nlohmann::ordered_json& r) {
+  if (r.contains("auto") && r["auto"].is_object()) {
+    for (const auto& st : r["auto"]["steps"]) {
+      nlohmann::ordered_json h = st["heldout"];
+      h["paired"] = st["paired"];
+      std::string what = "added " + st["added"].get<std::string>();
+      if (st.contains("estimate") && st["estimate"].is_object() && st["estimate"].contains(st["added"].get<std::string>())) {
+        std::string est;
+        for (const auto& v : st["estimate"][st["added"].get<std::string>()])
+          if (v.is_number()) est += (est.empty() ? "" : ", ") + std::to_string(v.get<double>()).substr(0, 8);
+        if (!est.empty()) what += " (" + est + ")";
+      }
+      printHeldout(what.c_str(), h);
+    }
+    if (r["auto"]["steps"].empty()) std::fprintf(stderr, "  --with auto: no step lowered the held-out error\n");
+  } else if (r.contains("heldout") && r["heldout"].is_object()) {
+    std::string with;
+    for (const auto& w : r["heldout"]["with"]) with += (with.empty() ? "" : ",") + w.get<std::string>();
+    printHeldout(("with " + with).c_str(), r["heldout"]);
+  }
+  if (r.contains("map_misfit") && r["map_misfit"].is_object() && r["map_misfit"]["regions"].is_array() &&
+      !r["map_misfit"]["regions"].empty()) {
+    const auto& regs = r["map_misfit"]["regions"];
+    std::fprintf(stderr, "  the map is wrong in %zu region(s); the strongest at (%.2f, %.2f) m, ranges %s than the map says\n",
+                 regs.size(), regs[0]["x"].get<double>(), regs[0]["y"].get<double>(),
+                 regs[0]["sign"].get<std::string>() == "short" ? "shorter" : "longer");
+  }
+}
+
 int runDiagnose(const std::string& log_path, const std::string& json_path, DiagnoseOptions opt, bool quiet,
                 const std::string& map_path = "", const cli::TuningArgs& tuning = {}) {
   const char* who = quiet ? "odoerr report" : "odoerr diagnose";
@@ -76,6 +120,7 @@ int runDiagnose(const std::string& log_path, const std::string& json_path, Diagn
     if (r["significant"].get<bool>()) named += (named.empty() ? "" : ", ") + r["effect"].get<std::string>();
   std::fprintf(stderr, "%s: %s; verdict %s; effects named: %s (%.1f s)\n", who, log_path.c_str(),
                result["verdict"].get<std::string>().c_str(), named.empty() ? "none" : named.c_str(), secs);
+  if (!quiet) printDiagnoseFindings(result);
   return 0;
 }
 
