@@ -320,6 +320,12 @@ void registerSimCommands(CLI::App& app, cli::Commands& cmds) {
         std::fprintf(stderr, "odoerr sim: a --map drive needs --path\n");
         return 2;
       }
+      if (!so->effects.empty()) {  // the map drive simulates no effect: refused, never dropped
+        std::fprintf(stderr,
+                     "odoerr sim: --effect does not apply to a --map drive (it simulates the nominal robot); use "
+                     "the effect drive (without --map) or tools/pysim/odosim.py\n");
+        return 2;
+      }
       MapDriveInput in;
       if (!loadMapDrive("odoerr sim", so->map, so->path, so->steps, so->loop, &in)) return 1;
       return writeMapSimLog(in, so->seed, so->out);
