@@ -1,88 +1,106 @@
 #!/usr/bin/env python3
-"""carmen_to_odolog.py: the SLAM-corrected Intel Research Lab CARMEN log -> odolog v1.
+"""carmen_to_odolog.py: a SLAM-corrected CARMEN log (the Intel Research Lab's and the other
+buildings of ../shared/data/carmen) -> odolog v1.
 
 Usage:
     carmen_to_odolog.py LOG[.gz] --out FILE [--max-scans N] [--fix-every N]
-                        [--scans [--range-max M] [--range-sigma S]]
+                        [--time stamps|order] [--missing-odometry refuse|flaser]
+                        [--scans [--range-max M] [--range-sigma S] [--no-return M]]
 
-Source: ../shared/data/carmen/intel-corrected.log.gz (read its README.md): recorded by
-Dirk Haehnel in the Intel Research Lab, Seattle, distributed through Radish (the Robotics
-Data Set Repository) as the log GMapping corrected; this copy from acschaefer/ple. No
-separate data licence is stated: the output carries a credit line.
+The data: ../shared/data/carmen/*-corrected.log.gz (read its README.md). No separate data
+licence is stated: the output carries a credit line for the five known buildings. What the
+importer reads, building by building: docs/real-data.md, "CARMEN logs: what the importer
+reads".
 
-What the corrected log holds (checked by this importer line by line; a file that does
-not follow it is refused, because the mapping below depends on it):
+What a corrected log holds (checked line by line; a file that does not follow it is
+refused, because the mapping below depends on it):
 - `FLASER n r1..rn x y theta odom_x odom_y odom_theta ts host lts`: x y theta is the
-  SLAM-corrected pose P_k of processed scan k, and the odom_* fields repeat it (so FLASER
-  lines carry no raw odometry).
-- the line just before FLASER k is an ODOM line with the same timestamp: the raw
-  odometry at scan time, in the frame anchored at P_(k-1);
-- the first ODOM line after FLASER k equals P_k (its timestamp is 0 or garbage): it
-  re-anchors odometry. The ODOM lines after it, up to the one just before FLASER k+1,
-  are raw odometry sub-steps in that anchored frame.
-So the raw odometry increment between consecutive ODOM lines of one anchored segment is
-    u = inverse(O_j) (+) O_(j+1)            (robot frame at O_j: dx, dy, dtheta)
-and the jump from the ODOM before a FLASER to the anchor after it is the SLAM correction,
-not motion: it is never turned into ticks.
+  SLAM-corrected pose P_k of processed scan k, and the odom_* fields repeat it (a FLASER
+  whose odom fields differ is a raw, uncorrected log: refused).
+- ODOM lines `ODOM x y theta tv rv accel ts host lts` are raw odometry. The first ODOM line
+  after FLASER k that repeats P_k is its ANCHOR: it re-anchors the odometry at P_k (its
+  time stamp is 0 or garbage and is not used). The jump into an anchor is the SLAM
+  correction, not motion: it is never turned into ticks. A log without anchors is read as
+  one continuous odometry frame.
+- FLASER k is paired with the raw odometry at its time: the ODOM line of the same time
+  stamp, before the FLASER (Intel and three more buildings) or after it (before its
+  anchor). With --time order (stamps unusable) the pair is the last raw ODOM line before
+  the FLASER. A FLASER with no raw odometry since the previous scan's anchor (orebro, 219
+  of 236 intervals) is refused, unless --missing-odometry flaser: the FLASER's own odom
+  fields (in a corrected log: the corrected pose) are then that interval's odometry, so
+  the interval's ticks carry no odometry error; the count is written in a meta line.
+- ODOM lines before the first FLASER (and the first FLASER's own pair) are dropped: no
+  corrected pose relates their frame to the map frame.
 
 Mapping (format: docs/odolog.md):
-- odolog has no raw-pose odometry record, so each sub-step becomes the encoder ticks of
-  an EQUIVALENT differential drive: `drive diff`, `param wheel_radius_m 0.0825`,
-  `param ticks_per_rev 4096`, `param wheelbase_m 0.33` (declared constants, not a
-  measurement of the Pioneer; one tick = 2*pi*0.0825/4096 = 0.1266 mm of wheel travel).
-  The sub-step is read with the project's mid-point motion model (motion.hpp:
-  x' = x + rho cos(theta + dtheta/2), ...): rho = dx cos(dtheta/2) + dy sin(dtheta/2)
-  (signed, so reversing gives negative travel), dtheta wrapped to (-pi, pi]. The wheels
-  travel R = rho + dtheta*d/2, L = rho - dtheta*d/2 (d = 0.33 m). The running sums of R and
-  L are quantised to ticks by rounding (so the rounding remainder is carried, never
-  accumulated). The sideways component -dx sin(dtheta/2) + dy cos(dtheta/2) that a
-  differential drive cannot produce is dropped; its total is reported in a meta line.
-- one `enc T A B` per ODOM sub-step (A = right, B = left, cumulative from 0); the log
-  starts at the first processed scan with `enc t0 0 0` and `init P_0` (sigmas 0.01 m,
-  0.01 m, 0.01 rad: the truth starts exactly there). The ODOM lines before the first
-  FLASER (about 0.7 m and 0.46 rad of motion from the odometry origin) are dropped: no
-  corrected pose relates their frame to the map frame, so no truth or prior could be
-  given for them. The ODOM sub-steps after the last FLASER are kept (enc only).
-- one `truth T X Y THETA` per FLASER line (the corrected pose P_k), at the time of the
-  enc record of the ODOM line just before it (the same raw timestamp), written after
-  that enc record. It is a SLAM result (good to a few cm and about a degree), not
-  motion capture.
-- with --fix-every N > 0, scans k = N, 2N, ... also give a `pose` fix at P_k with
-  sigmas 0.03 m, 0.03 m, 0.02 rad (default 0: no fixes; scan 0 never, it is the init).
-- without --scans: NO `laser`, `scan` or `wall` records.
-- with --scans: the header gets `laser 180 -1.5707963 0.017453293 RANGE_MAX SIGMA 0 0 0`
-  (first beam at -90 deg, counter-clockwise, one beam per DEGREE: the step was measured
-  against the alternative reading 180/179 deg by building the occupancy grid both ways,
-  see docs/map-format.md; the laser is taken at the robot's origin, as no mount offset is
-  known for this log), and each FLASER gives `scan T r1..r180` at its truth record's time,
-  the ranges copied as written, `nan` where the log says no return (81.83 m, or any range
-  >= 81 m). RANGE_MAX defaults to 30 m (the longest return in the log is 25.4 m) and SIGMA to
-  0.03 m (a declared value, not a measurement). Still no `wall` records: the map is a
-  separate file (`odoerr map grid-from-carmen` then `odoerr map import`, passed to replay
-  with --map). Note that such a map is built from the very corrected poses that serve as
-  truth here, so a pose error against that truth is partly circular (the map and the truth
-  share the SLAM system's errors).
-- time: the CARMEN ipc timestamps go backwards in places (622 times over the lines used,
-  by up to 0.9 s), often repeat the previous stamp, and the anchor lines carry 0 or
-  garbage (1e-42). So the written time is synthetic, built in file order over the ODOM
-  sub-step lines and FLASER lines used:
-        t_j = max(ts_j, t_(j-1) + 0.001 s),   t_0 = ts of the first FLASER
-  It stays on the source's clock wherever that is monotonic, never lags it, and is
-  strictly increasing, so every enc record has its own time and a truth / pose record
-  (which takes the time of the ODOM line just before its FLASER) sits on exactly one
-  enc record: a reader that looks up the counts at a fix's time gets the right ones.
-  How many stamps were moved, and by how much at most, is written in a meta line.
-  --max-scans N stops after the N-th processed scan.
-- `meta source carmen intel-corrected`, a credit line, the SHA-256 of the input (of the
-  decompressed text) and the conversion statistics. The output depends only on the input
-  and the options: running twice gives identical files.
+- each raw sub-step (from one ODOM line, or the anchor, to the next raw ODOM line)
+  becomes the encoder ticks of an EQUIVALENT differential drive: `drive diff`, `param
+  wheel_radius_m 0.0825`, `param ticks_per_rev 4096`, `param wheelbase_m 0.33` (declared
+  constants, not a measurement of any of the robots; one tick = 0.1266 mm of wheel travel).
+  The sub-step (dx, dy, dtheta, in the robot frame at its start; dtheta modulo 2 pi, so
+  headings need not be wrapped in the log) is read with the mid-point model (motion.hpp):
+  rho = dx cos(dtheta/2) + dy sin(dtheta/2), the wheels travel R = rho + dtheta*d/2,
+  L = rho - dtheta*d/2, and the running sums are quantised to ticks by rounding. The
+  sideways part -dx sin(dtheta/2) + dy cos(dtheta/2), which one arc cannot make, is
+  dropped (its total is written in a meta line) as long as the pose the written ticks
+  dead-reckon to stays within 1 cm and 0.005 rad of the logged odometry. A sub-step that
+  would leave it farther (sparse odometry: a turn and a drive in one step; or dropped
+  sideways parts adding up) is written as TWO enc records from the pose the ticks have
+  reached: the arc to the logged end point (rotation 2*phi, phi its chord's direction)
+  and then a turn in place, the first at the mid-time between its neighbours. The ticks
+  thus follow the logged odometry at every ODOM line to within 1 cm (Intel: none split,
+  9 mm at most; csail: 903 of 1926 split).
+- the log starts at the first scan with `enc t0 0 0` and `init P_0` (sigmas 0.01 m,
+  0.01 m, 0.01 rad). Sub-steps after the last scan are kept (enc only).
+- one `truth T X Y THETA` per FLASER (P_k as written, headings unwrapped or not), at the
+  time of the enc record of its paired ODOM line; with --fix-every N > 0 scans N, 2N, ...
+  also give a `pose` fix at P_k (sigmas 0.03 m, 0.03 m, 0.02 rad).
+- with --scans: the `laser` record and one `scan T r1..rn` per FLASER at its truth's time.
+  Beam directions: a FLASER has none. The beam-count rule (as CARMEN reads a FLASER:
+  first beam at -90 deg, counter-clockwise; 180 and 181 beams 1 deg apart, 360 and 361
+  beams 0.5 deg apart) unless the log states PARAM laser_front_laser_resolution (degrees)
+  and / or laser_front_laser_fov (degrees; or radians when only that reading fits the beam
+  count), which win: the step is the resolution, the fov is from the first beam to the
+  last (or to one step past the last: the last beam dropped, as in 180 and 360 beam logs),
+  and the first beam is at -fov/2. Another beam count without those PARAMs is refused. The
+  mount: PARAM robot_frontlaser_offset (m ahead of the robot's origin),
+  robot_frontlaser_side_offset and robot_frontlaser_angular_offset, else 0 (the corrected
+  pose is taken as the robot's, with the laser at the stated offset from it, as the SLAM
+  system placed it). RANGE_MAX: --range-max, else PARAM robot_front_laser_max, else 30 m.
+  A reading at or above the no-return limit is written `nan`: --no-return, else PARAM
+  robot_front_laser_max, else 80 m (the maximum range CARMEN assumes for a FLASER). When
+  the readings below that limit pile up at their top (a no-return code the log does not
+  state, as ACES's 50 m and Orebro's 32.76 m), a meta line and a note on stderr say so
+  and name the --no-return that would take them. SIGMA: --range-sigma, 0.03 m. Every
+  choice and where it came from is written in `meta laser_*` lines. No `wall` records:
+  the map is a separate file (`odoerr map grid-from-carmen`, `odoerr map import`).
+- time, --time stamps (the default): each line used (the raw ODOM sub-steps and the first
+  FLASER) is stamped with its ipc_timestamp, or its logger_timestamp when that is 0 or
+  not usable, and a line with neither is refused. A stamp is not usable when it is 0 or
+  negative, or written in exponent form to a step above 0.1 s (csail's `1.13486e+09`, a
+  step of 10000 s). The stamps go backwards in places (Intel: 622 times, up to 0.9 s) and
+  repeat, so the written time is
+        t_j = max(stamp_j, t_(j-1) + 0.001 s),   t_0 = the first FLASER's stamp
+  which stays on the source's clock wherever it is monotonic and is strictly increasing;
+  how many stamps were moved, by how much at most, is written in a meta line.
+  --time order: the stamps are not used; the lines used are 0.1 s apart in file order (a
+  declared step, not a measurement); the pairing is by order as said above.
+  --max-scans N stops after the N-th scan.
+- meta lines: the source name and credit, the SHA-256 of the decompressed text, the
+  message types of the log with their counts (which were read, which skipped: NEFF, SYNC,
+  RLASER, RAWLASER*, ROBOTLASER*, TRUEPOS, ... are counted, never silently dropped), the
+  formats its header declares, the PARAM lines read, the time and odometry statistics.
+  The output depends only on the input and the options: running twice gives identical
+  files.
 
-Malformed input (an ODOM or FLASER line with the wrong field count or a non-numeric
-value, a FLASER whose pose and odom fields differ, a FLASER not preceded by an ODOM line
-of the same timestamp, an anchor ODOM that does not repeat the FLASER pose, bytes that
-are not text, no FLASER at all) is refused with `FILE:LINE: what is wrong` on stderr and
-exit status 2 (line numbers count lines of the decompressed text); nothing is written then.
-Other message types (PARAM, NEFF, comments, and any not named above) are skipped.
+Malformed input is refused with `FILE:LINE: what is wrong` on stderr and exit status 2
+(line numbers count lines of the decompressed text), and nothing is written: an ODOM or
+FLASER line with the wrong field count (a truncated line among them) or a field that is
+not a decimal number, a FLASER whose pose and odom fields differ, a first word that is not
+an upper-case message type, a PARAM the importer reads whose value is not a number or
+changes, a FLASER whose odometry cannot be paired (see above), a used line with no usable
+time stamp, bytes that are not ASCII text, no FLASER at all; with --scans, FLASERs of
+different beam counts, and beam directions that no rule or PARAM gives.
 """
 
 import hashlib
@@ -101,12 +119,41 @@ TICK_M = 2 * math.pi * WHEEL_RADIUS_M / TICKS_PER_REV
 INIT_SIGMA = (0.01, 0.01, 0.01)
 FIX_SIGMA = (0.03, 0.03, 0.02)
 TIME_STEP_MIN = 0.001      # s, the synthetic clock's smallest step
-NO_RETURN_M = 81.0         # FLASER ranges at or above this (81.83) mean no return
-BEAM_MIN = -math.pi / 2    # first FLASER beam (rad, robot frame)
-BEAM_STEP = math.pi / 180  # one degree per beam (measured: docs/map-format.md)
-ANCHOR_TOL = 1e-4          # m / rad: anchor ODOM must repeat the FLASER pose
+ORDER_STEP = 0.1           # s between lines used, with --time order
+STAMP_STEP_MAX = 0.1       # s, the coarsest step a stamp in exponent form may have
+ANCHOR_TOL = 1e-4          # m / rad: an anchor ODOM must repeat the FLASER pose
+TRACK_POS_M = 0.01         # m, rad: when one arc would leave the ticks' pose farther than this
+TRACK_HEADING_RAD = 0.005  # from the logged odometry, the sub-step becomes arc + turn
+CARMEN_MAX_RANGE_M = 80.0  # CARMEN's maximum range of a FLASER without configuration
+RANGE_MAX_DEFAULT_M = 30.0
+RANGE_SIGMA_DEFAULT_M = 0.03
+# The beam-count rule: degrees between beams, first beam at -90 deg (CARMEN's reading of a
+# FLASER, carmen_laser_guess_angle_increment; its 180 and 360 beam logs dropped the last beam).
+BEAM_RULE_DEG = {180: 1.0, 181: 1.0, 360: 0.5, 361: 0.5}
+ANGLE_TOL_DEG = 0.01
+PILE_UP_BAND = 0.01        # reading values within 1 % of the largest one below the limit...
+PILE_UP_REPEAT = 5         # ...each repeated at least 5 times...
+PILE_UP_SHARE = 0.001      # ...in more than 0.1 % of all readings: a no-return code?
 
 INT_RE = re.compile(r"^\d+$")
+TYPE_RE = re.compile(r"^[A-Z][A-Z0-9_]*$")
+LASER_PARAMS = ("laser_front_laser_fov", "laser_front_laser_resolution", "laser_front_laser_flipped",
+                "robot_frontlaser_offset", "robot_frontlaser_side_offset",
+                "robot_frontlaser_angular_offset", "robot_front_laser_max")
+READ_TYPES = ("ODOM", "FLASER", "PARAM")
+
+# The five buildings of ../shared/data/carmen (README.md there): the comment line's title and
+# the credit. All five are GMapping-corrected logs distributed by Radish, copied from
+# github.com/acschaefer/ple (data/carmen/).
+RADISH = "distributed by Radish, the Robotics Data Set Repository"
+BUILDINGS = {
+    "intel-corrected": ("Intel Research Lab",
+                        "recorded by Dirk Haehnel (Intel Research Lab, Seattle); " + RADISH),
+    "aces-corrected": ("ACES building, University of Texas at Austin", RADISH),
+    "freiburg-079-corrected": ("Building 079, University of Freiburg", RADISH),
+    "csail-corrected": ("CSAIL building, MIT", RADISH),
+    "orebro-corrected": ("Orebro University", RADISH),
+}
 
 
 def wrap(a):
@@ -117,65 +164,301 @@ def wrap(a):
     return a - math.pi
 
 
+def increment(a, b):
+    """(rho, dtheta, side, dx, dy) of the motion from pose a to pose b, read with the
+    mid-point model: dx, dy in the frame of a, dtheta modulo 2 pi, rho the arc's signed
+    travel, side the part one arc cannot make."""
+    ax, ay, ath = a
+    bx, by, bth = b
+    c, s = math.cos(ath), math.sin(ath)
+    wx, wy = bx - ax, by - ay
+    dx = c * wx + s * wy
+    dy = -s * wx + c * wy
+    dth = wrap(bth - ath)
+    ch, sh = math.cos(dth / 2), math.sin(dth / 2)
+    return dx * ch + dy * sh, dth, -dx * sh + dy * ch, dx, dy
+
+
 def read_text(path):
     data = read_bytes(path)
     return data, hashlib.sha256(data).hexdigest()
 
 
-def parse_odom(f, where):
+def source_name(path):
+    name = os.path.basename(path)
+    for ext in (".gz", ".log", ".clf"):
+        if name.endswith(ext):
+            name = name[:-len(ext)]
+    return name or "log"
+
+
+def stamp_problem(text, value):
+    """Why a time stamp is not usable, or None when it is."""
+    if value == 0:
+        return "is 0"
+    if value < 0:
+        return "is negative"
+    m = re.match(r"^[+-]?(\d*)\.?(\d*)[eE]([+-]?\d+)$", text)
+    if m:
+        step = 10.0 ** (int(m.group(3)) - len(m.group(2)))
+        if step > STAMP_STEP_MAX:
+            digits = len((m.group(1) + m.group(2)).lstrip("0"))
+            return f"is written to {digits} significant digits, a step of {step:g} s"
+    return None
+
+
+class Line:
+    """One ODOM or FLASER line, checked."""
+    __slots__ = ("kind", "no", "where", "pose", "odom", "ts_text", "ts", "lts_text", "lts", "n", "ranges")
+
+    def stamp(self):
+        """(value, 'ipc' | 'logger') of the first usable stamp, or (None, why not)."""
+        p = stamp_problem(self.ts_text, self.ts)
+        if p is None:
+            return self.ts, "ipc"
+        q = stamp_problem(self.lts_text, self.lts)
+        if q is None:
+            return self.lts, "logger"
+        return None, (f"ipc_timestamp '{self.ts_text}' {p} and logger_timestamp '{self.lts_text}' {q}")
+
+
+def parse_odom(f, where, last_line):
     # ODOM x y theta tv rv accel ipc_timestamp ipc_hostname logger_timestamp
     if len(f) != 10:
-        raise InputError(f"{where}: ODOM takes 9 fields (x y theta tv rv accel ts host lts), got {len(f) - 1}")
-    x = parse_number(f[1], where, "ODOM x")
-    y = parse_number(f[2], where, "ODOM y")
-    th = parse_number(f[3], where, "ODOM theta")
-    for i, name in ((4, "tv"), (5, "rv"), (6, "accel"), (9, "logger_timestamp")):
+        raise InputError(f"{where}: ODOM takes 9 fields (x y theta tv rv accel ts host lts), got {len(f) - 1}"
+                         + truncated_note(last_line))
+    o = Line()
+    o.kind, o.where = "ODOM", where
+    o.pose = tuple(parse_number(f[i], where, f"ODOM {name}") for i, name in ((1, "x"), (2, "y"), (3, "theta")))
+    for i, name in ((4, "tv"), (5, "rv"), (6, "accel")):
         parse_number(f[i], where, f"ODOM {name}")
-    ts = parse_number(f[7], where, "ODOM ipc_timestamp")
-    return x, y, th, ts, f[7]
+    o.ts_text, o.ts = f[7], parse_number(f[7], where, "ODOM ipc_timestamp")
+    o.lts_text, o.lts = f[9], parse_number(f[9], where, "ODOM logger_timestamp")
+    return o
 
 
-def parse_flaser(f, where):
+def parse_flaser(f, where, last_line):
     # FLASER n r1..rn x y theta odom_x odom_y odom_theta ipc_timestamp host logger_timestamp
     if len(f) < 2 or not INT_RE.match(f[1]):
-        raise InputError(f"{where}: FLASER: the beam count '{f[1] if len(f) > 1 else ''}' is not a count")
+        raise InputError(f"{where}: FLASER: the beam count '{f[1] if len(f) > 1 else ''}' is not a count"
+                         + truncated_note(last_line))
     n = int(f[1])
+    if n < 1:
+        raise InputError(f"{where}: FLASER with 0 beams")
     if len(f) != n + 11:
-        raise InputError(f"{where}: FLASER with {n} beams takes {n + 10} fields, got {len(f) - 1}")
+        raise InputError(f"{where}: FLASER with {n} beams takes {n + 10} fields, got {len(f) - 1}"
+                         + truncated_note(last_line))
     for i in range(2, 2 + n):
         parse_number(f[i], where, f"FLASER range {i - 1}")
-    p = [parse_number(f[2 + n + i], where, name) for i, name in
+    p = [parse_number(f[2 + n + i], where, f"FLASER {name}") for i, name in
          enumerate(("x", "y", "theta", "odom_x", "odom_y", "odom_theta"))]
-    parse_number(f[n + 10], where, "FLASER logger_timestamp")
-    ts = parse_number(f[n + 8], where, "FLASER ipc_timestamp")
+    o = Line()
+    o.kind, o.where, o.n = "FLASER", where, n
+    o.ts_text, o.ts = f[n + 8], parse_number(f[n + 8], where, "FLASER ipc_timestamp")
+    o.lts_text, o.lts = f[n + 10], parse_number(f[n + 10], where, "FLASER logger_timestamp")
     if p[0:3] != p[3:6]:
-        raise InputError(f"{where}: FLASER pose and odom pose differ: not the SLAM-corrected layout "
-                         f"this importer understands (see the docstring)")
-    return p[0], p[1], p[2], ts, f[n + 8]
+        raise InputError(f"{where}: FLASER pose ({' '.join(f[n + 2:n + 5])}) and odom pose "
+                         f"({' '.join(f[n + 5:n + 8])}) differ: a raw (uncorrected) log, not the "
+                         f"SLAM-corrected layout this importer reads (see the docstring)")
+    o.pose = o.odom = tuple(p[0:3])
+    o.ranges = f[2:2 + n]
+    return o
+
+
+def truncated_note(last_line):
+    return " (the file ends inside this line: truncated?)" if last_line else ""
+
+
+class Param:
+    __slots__ = ("name", "text", "value", "where", "no")
+
+
+def parse_param(f, where, no, params):
+    """Keeps the PARAMs the importer reads (LASER_PARAMS); the others are counted only."""
+    if len(f) < 3:
+        raise InputError(f"{where}: PARAM takes a name and a value, got {len(f) - 1} fields")
+    name = f[1]
+    if name not in LASER_PARAMS:
+        return
+    # PARAM name value [ipc_timestamp] host logger_timestamp
+    if len(f) not in (5, 6):
+        raise InputError(f"{where}: PARAM {name} takes 4 or 5 fields (name value [ts] host lts), got {len(f) - 1}")
+    p = Param()
+    p.name, p.text, p.where, p.no = name, f[2], where, no
+    if name == "laser_front_laser_flipped" and f[2] in ("on", "off"):
+        p.value = 1.0 if f[2] == "on" else 0.0
+    else:
+        p.value = parse_number(f[2], where, f"PARAM {name}")
+    old = params.get(name)
+    if old is not None and old.value != p.value:
+        raise InputError(f"{where}: PARAM {name} changes from {old.text} (line {old.no}) to {p.text}: "
+                         f"one odolog laser record cannot describe both")
+    if old is None:
+        params[name] = p
+
+
+def read_log(data, path):
+    """(lines: [Line], params: {name: Param}, counts: {type: n} in order of appearance,
+    declared: [types] or None)."""
+    lines = []
+    params = {}
+    counts = {}
+    declared = None
+    raw_lines = data.split(b"\n")
+    last_no = len(raw_lines) - 1 if raw_lines and raw_lines[-1] == b"" else len(raw_lines)
+    ends_open = not data.endswith(b"\n")
+    for no, raw in enumerate(raw_lines, start=1):
+        where = f"{path}:{no}"
+        try:
+            line = raw.decode("ascii")
+        except UnicodeDecodeError:
+            raise InputError(f"{where}: the line is not ASCII text") from None
+        f = line.split()
+        if not f:
+            continue
+        last = ends_open and no == last_no
+        if f[0].startswith("#"):
+            counts["#"] = counts.get("#", 0) + 1
+            m = re.match(r"^#\s*message formats defined:\s*(.*)$", line.strip())
+            if m and declared is None:
+                declared = m.group(1).split()
+            continue
+        kind = f[0]
+        if not TYPE_RE.match(kind):
+            raise InputError(f"{where}: '{kind[:40]}' is not a CARMEN message type (an upper-case word)"
+                             + truncated_note(last))
+        if last and kind not in READ_TYPES:
+            raise InputError(f"{where}: the file ends inside this line (no line end after '{kind[:40]}'): "
+                             f"a truncated line")
+        counts[kind] = counts.get(kind, 0) + 1
+        if kind == "ODOM":
+            o = parse_odom(f, where, last)
+            o.no = no
+            lines.append(o)
+        elif kind == "FLASER":
+            o = parse_flaser(f, where, last)
+            o.no = no
+            lines.append(o)
+        elif kind == "PARAM":
+            parse_param(f, where, no, params)
+    return lines, params, counts, declared
+
+
+def laser_geometry(n, params, where):
+    """(start_rad, step_rad, [notes]) for n beams: PARAM, else the beam-count rule."""
+    if not 1 <= n <= 4096:
+        raise InputError(f"{where}: FLASER with {n} beams: an odolog laser has 1 to 4096")
+    flipped = params.get("laser_front_laser_flipped")
+    if flipped is not None and flipped.value != 0:
+        raise InputError(f"{flipped.where}: PARAM laser_front_laser_flipped {flipped.text}: the beam order "
+                         f"of a flipped laser is not known to this importer")
+    rule = BEAM_RULE_DEG.get(n)
+    res = params.get("laser_front_laser_resolution")
+    fov = params.get("laser_front_laser_fov")
+    notes = []
+    if res is not None:
+        if not 0 < res.value <= 180:
+            raise InputError(f"{res.where}: PARAM laser_front_laser_resolution {res.text}: not a beam step in "
+                             f"degrees (0 to 180)")
+        step, step_src = res.value, f"PARAM laser_front_laser_resolution {res.text} (line {res.no}, degrees)"
+    elif rule is not None:
+        step, step_src = rule, f"the beam-count rule ({n} beams: {rule:g} deg apart, as CARMEN reads a FLASER)"
+    else:
+        step, step_src = None, None
+
+    def fits(fov_deg, s):
+        return abs((n - 1) * s - fov_deg) <= ANGLE_TOL_DEG or abs(n * s - fov_deg) <= ANGLE_TOL_DEG
+
+    if fov is not None:
+        if not fov.value > 0:
+            raise InputError(f"{fov.where}: PARAM laser_front_laser_fov {fov.text}: not a field of view")
+        cands = [("degrees", fov.value)]
+        if fov.value <= 2 * math.pi + 1e-3:
+            cands.append(("radians", math.degrees(fov.value)))
+        if step is not None:
+            ok = [c for c in cands if fits(c[1], step)]
+            if not ok:
+                raise InputError(f"{fov.where}: PARAM laser_front_laser_fov {fov.text} does not fit {n} beams "
+                                 f"{step:g} deg apart ({step_src}): that makes {(n - 1) * step:g} deg from the "
+                                 f"first beam to the last, {n * step:g} deg with one more step")
+            if len(ok) > 1:
+                raise InputError(f"{fov.where}: PARAM laser_front_laser_fov {fov.text} fits {n} beams read in "
+                                 f"degrees and in radians: the unit cannot be told")
+            unit, fov_deg = ok[0]
+            why = ("" if len(cands) == 1 or unit == "degrees" else
+                   f"; in degrees it would not fit {n} beams {step:g} deg apart")
+        else:
+            if len(cands) > 1:
+                raise InputError(f"{fov.where}: PARAM laser_front_laser_fov {fov.text}: with no resolution and no "
+                                 f"beam-count rule for {n} beams, its unit (degrees or radians) cannot be told")
+            if n < 2:
+                raise InputError(f"{fov.where}: PARAM laser_front_laser_fov with a 1-beam laser: no step")
+            unit, fov_deg, why = "degrees", fov.value, ""
+            step = fov_deg / (n - 1)
+            step_src = f"the PARAM fov spread over the {n - 1} steps between {n} beams"
+        start = -fov_deg / 2
+        start_src = "-fov/2 (the sector centred ahead)"
+        notes.append(f"fov {fov_deg:.6g} deg from PARAM laser_front_laser_fov {fov.text} (line {fov.no}, read in "
+                     f"{unit}{why})")
+        if abs((n - 1) * step - fov_deg) > ANGLE_TOL_DEG:
+            notes.append(f"the fov is {n} steps: the sector's last beam is not in the log")
+    else:
+        if step is None:
+            raise InputError(f"{where}: FLASER with {n} beams: no PARAM laser_front_laser_fov or "
+                             f"laser_front_laser_resolution and no beam-count rule for {n} beams (it knows "
+                             f"{', '.join(str(k) for k in sorted(BEAM_RULE_DEG))}): the beams' directions "
+                             f"are not known")
+        start, start_src = -90.0, "CARMEN's first FLASER beam (the robot's right)"
+    if (n - 1) * step > 360 + ANGLE_TOL_DEG:
+        raise InputError(f"{where}: {n} beams {step:g} deg apart span more than a turn")
+    if rule is not None and (res is not None or fov is not None):
+        if abs(step - rule) <= 1e-9 and abs(start + 90) <= ANGLE_TOL_DEG:
+            notes.append("the beam-count rule agrees")
+        else:
+            notes.append(f"PARAM overrides the beam-count rule (-90 deg, {rule:g} deg apart)")
+    head = (f"{n} beams counter-clockwise: the first at {start:.6g} deg from {start_src}; "
+            f"{step:.6g} deg apart from {step_src}")
+    return math.radians(start), math.radians(step), [head] + notes
 
 
 class Converter:
-    def __init__(self, max_scans, fix_every, scans=False, range_max=30.0, range_sigma=0.03):
+    def __init__(self, max_scans, fix_every, scans=False, range_max=None, range_sigma=RANGE_SIGMA_DEFAULT_M,
+                 no_return=None, time_mode="stamps", missing="refuse"):
         self.max_scans = max_scans
         self.fix_every = fix_every
         self.with_scans = scans
-        self.range_max = range_max
+        self.range_max_opt = range_max
         self.range_sigma = range_sigma
+        self.no_return_opt = no_return
+        self.order = time_mode == "order"
+        self.missing = missing
+        self.laser = None           # (start, step, range_max, mount) with --scans
+        self.laser_meta = []
+        self.no_return = None
+        self.pile_up = None
         self.beams = None
         self.no_returns = 0
         self.returns = 0
         self.body = []
         self.scans = 0
         self.t = None               # last written time
+        self.t_prev = None          # the one before it
         self.prev_ts = None         # last raw stamp seen (for the backwards count)
         self.backwards = 0
         self.repeats = 0
         self.moved = 0
         self.max_shift = 0.0
         self.stamps = 0
+        self.from_logger = 0
         self.cum_r = 0.0
         self.cum_l = 0.0
+        self.ticks = (0, 0)         # the last written counts
+        self.dead = None            # the pose they dead-reckon to, in the current odometry frame
         self.substeps = 0
+        self.splits = 0
+        self.split_side = 0.0
+        self.split_turn = 0.0
+        self.fills = 0
         self.prefix_odom = 0
         self.after_last = 0
         self.side_sum = 0.0
@@ -186,138 +469,370 @@ class Converter:
         self.fixes = 0
         self.init = None
         self.t_end = None
+        self.heading_range = None
+        self.counts = {}
+        self.declared = None
+        self.params = {}
 
-    def clock(self, ts):
-        """The synthetic strictly increasing time for a raw stamp, in file order."""
+    # ---------------------------------------------------------------- time
+    def stamp_of(self, line, required=True):
+        """The stamp of a line used (--time stamps); InputError when it has none."""
+        v, src = line.stamp()
+        if v is None and required:
+            raise InputError(f"{line.where}: {line.kind}: no usable time stamp: {src}; --time order writes a "
+                             f"synthetic time in file order instead")
+        return v
+
+    def clock(self, line):
+        """The written time of a line used: strictly increasing, in file order."""
         self.stamps += 1
-        if self.prev_ts is not None and ts < self.prev_ts:
-            self.backwards += 1
-        elif self.prev_ts is not None and ts == self.prev_ts:
-            self.repeats += 1
-        self.prev_ts = ts
-        t = ts if self.t is None else max(ts, self.t + TIME_STEP_MIN)
-        if t != ts:
-            self.moved += 1
-            self.max_shift = max(self.max_shift, t - ts)
+        prev = self.t
+        if self.order:
+            t = (self.stamps - 1) * ORDER_STEP
+        else:
+            ts, src = line.stamp()
+            if ts is None:
+                self.stamp_of(line)
+            if src == "logger":
+                self.from_logger += 1
+            if self.prev_ts is not None and ts < self.prev_ts:
+                self.backwards += 1
+            elif self.prev_ts is not None and ts == self.prev_ts:
+                self.repeats += 1
+            self.prev_ts = ts
+            t = ts if prev is None else max(ts, prev + TIME_STEP_MIN)
+            if t != ts:
+                self.moved += 1
+                self.max_shift = max(self.max_shift, t - ts)
+        self.t_prev = prev
         self.t = t
         return t
 
-    def substep(self, a, b, t):
-        ax, ay, ath = a
-        bx, by, bth = b
-        c, s = math.cos(ath), math.sin(ath)
-        wx, wy = bx - ax, by - ay
-        dx = c * wx + s * wy
-        dy = -s * wx + c * wy
-        dth = wrap(bth - ath)
-        ch, sh = math.cos(dth / 2), math.sin(dth / 2)
-        rho = dx * ch + dy * sh
-        side = -dx * sh + dy * ch
-        self.cum_r += rho + dth * WHEELBASE_M / 2
-        self.cum_l += rho - dth * WHEELBASE_M / 2
-        ticks_r = math.floor(self.cum_r / TICK_M + 0.5)
-        ticks_l = math.floor(self.cum_l / TICK_M + 0.5)
+    # ---------------------------------------------------------------- odometry
+    def ticks_after(self, rho, dth):
+        """(cum_r, cum_l, ticks_r, ticks_l, dead-reckoned pose) after a motion (rho, dth)."""
+        cum_r = self.cum_r + rho + dth * WHEELBASE_M / 2
+        cum_l = self.cum_l + rho - dth * WHEELBASE_M / 2
+        ticks_r = math.floor(cum_r / TICK_M + 0.5)
+        ticks_l = math.floor(cum_l / TICK_M + 0.5)
+        # the pose the written ticks dead-reckon to (the mid-point model, as a reader does)
+        dr = (ticks_r - self.ticks[0]) * TICK_M
+        dl = (ticks_l - self.ticks[1]) * TICK_M
+        r, dt = (dr + dl) / 2, (dr - dl) / WHEELBASE_M
+        x, y, th = self.dead
+        return cum_r, cum_l, ticks_r, ticks_l, (x + r * math.cos(th + dt / 2), y + r * math.sin(th + dt / 2), th + dt)
+
+    def advance(self, rho, dth, t, after=None):
+        self.cum_r, self.cum_l, ticks_r, ticks_l, self.dead = after or self.ticks_after(rho, dth)
+        self.ticks = (ticks_r, ticks_l)
         self.body.append(f"enc {t:.6f} {ticks_r} {ticks_l}")
+        self.t_end = t
+
+    def substep(self, a, b, t):
+        """The motion from odometry pose a to b as ticks, at time t."""
+        rho, dth, side, dx, dy = increment(a, b)
+        after = self.ticks_after(rho, dth)
+        gap = math.hypot(after[4][0] - b[0], after[4][1] - b[1])
+        if gap <= TRACK_POS_M and abs(wrap(after[4][2] - b[2])) <= TRACK_HEADING_RAD:
+            # one arc; its sideways part is dropped
+            self.advance(rho, dth, t, after)
+            self.side_sum += abs(side)
+            self.side_max = max(self.side_max, abs(side))
+        else:
+            # sparse odometry (a turn and a drive in one step) or dropped sideways parts adding up:
+            # from the pose the ticks have reached, the arc to the logged end point (its chord's
+            # direction phi, rotation 2 phi; backwards when the end point is behind) and then the
+            # rest of the rotation in place
+            _, _, _, ddx, ddy = increment(self.dead, b)
+            chord = math.hypot(ddx, ddy)
+            phi = math.atan2(ddy, ddx)
+            if abs(phi) > math.pi / 2:
+                phi, chord = wrap(phi + math.pi), -chord
+            turn = wrap(b[2] - self.dead[2] - 2 * phi)
+            self.advance(chord, 2 * phi, self.t_prev + (t - self.t_prev) / 2)
+            self.advance(0.0, turn, t)
+            self.splits += 1
+            self.split_side += abs(side)
+            self.split_turn = max(self.split_turn, abs(turn))
         self.substeps += 1
-        self.side_sum += abs(side)
-        self.side_max = max(self.side_max, abs(side))
         self.path += math.hypot(dx, dy)
         self.rot += abs(dth)
         self.max_dth = max(self.max_dth, abs(dth))
-        self.t_end = t
 
-    def scan_record(self, f, t, where):
-        n = int(f[1])
+    def heading(self, th):
+        lo, hi = self.heading_range or (th, th)
+        self.heading_range = (min(lo, th), max(hi, th))
+
+    # ---------------------------------------------------------------- scans
+    def setup_laser(self, first):
+        n = first.n
+        start, step, notes = laser_geometry(n, self.params, first.where)
+        p = self.params
+        if self.range_max_opt is not None:
+            rmax, rsrc = self.range_max_opt, "--range-max"
+        elif "robot_front_laser_max" in p:
+            q = p["robot_front_laser_max"]
+            if not q.value > 0:
+                raise InputError(f"{q.where}: PARAM robot_front_laser_max {q.text}: not a range")
+            rmax, rsrc = q.value, f"PARAM robot_front_laser_max {q.text} (line {q.no})"
+        else:
+            rmax, rsrc = RANGE_MAX_DEFAULT_M, "the default (no PARAM robot_front_laser_max, no --range-max)"
+        if self.no_return_opt is not None:
+            self.no_return, nsrc = self.no_return_opt, "--no-return"
+        elif "robot_front_laser_max" in p:
+            q = p["robot_front_laser_max"]
+            self.no_return, nsrc = q.value, f"PARAM robot_front_laser_max {q.text} (line {q.no})"
+        else:
+            self.no_return, nsrc = CARMEN_MAX_RANGE_M, "CARMEN's maximum range of a FLASER (no PARAM states one)"
+        mount = []
+        msrc = []
+        for name, what in (("robot_frontlaser_offset", "x"), ("robot_frontlaser_side_offset", "y"),
+                           ("robot_frontlaser_angular_offset", "yaw")):
+            q = p.get(name)
+            mount.append(0.0 if q is None else q.value)
+            msrc.append(f"{what} {q.value:g} from PARAM {name} {q.text} (line {q.no})" if q is not None
+                        else f"{what} 0 (no PARAM {name})")
+        self.laser = (start, step, rmax, mount)
+        self.laser_meta = [
+            "laser_beams " + "; ".join(notes),
+            f"laser_range RANGE_MAX {rmax:g} m from {rsrc}; no return: readings >= {self.no_return:g} m "
+            f"written as nan, from {nsrc}; SIGMA {self.range_sigma:g} m "
+            f"({'--range-sigma' if self.range_sigma != RANGE_SIGMA_DEFAULT_M else 'the default, a declared value'})",
+            "laser_mount " + "; ".join(msrc) + " (the corrected pose is taken as the robot's)",
+        ]
+        self.top = {}               # reading -> count, the readings below the no-return limit
+
+    def scan_record(self, fl, t):
+        n = fl.n
         if self.beams is None:
             self.beams = n
+            self.setup_laser(fl)
         elif n != self.beams:
-            raise InputError(f"{where}: FLASER with {n} beams, the first one had {self.beams}: "
+            raise InputError(f"{fl.where}: FLASER with {n} beams, the first one had {self.beams}: "
                              f"one odolog `laser` record cannot describe both")
         out = []
-        for tok in f[2:2 + n]:
-            if float(tok) >= NO_RETURN_M:
+        lim = self.no_return
+        for tok in fl.ranges:
+            v = float(tok)
+            if v >= lim:
                 out.append("nan")
                 self.no_returns += 1
             else:
                 out.append(tok)
                 self.returns += 1
+                self.top[v] = self.top.get(v, 0) + 1
         self.body.append(f"scan {t:.6f} " + " ".join(out))
 
-    def run(self, data, path):
-        state = "prefix"          # prefix -> (scan -> anchor -> segment)*
-        last_odom = None          # (pose, ts_text, line) of the last raw ODOM line
-        pose = None               # the pose sub-steps start from
-        last_scan_pose = None
-        for no, raw in enumerate(data.split(b"\n"), start=1):
-            where = f"{path}:{no}"
-            try:
-                line = raw.decode("ascii")
-            except UnicodeDecodeError:
-                raise InputError(f"{where}: the line is not ASCII text") from None
-            f = line.split()
-            if not f or f[0].startswith("#"):
-                continue
-            kind = f[0]
-            if kind == "ODOM":
-                x, y, th, ts, ts_text = parse_odom(f, where)
-                if state == "prefix":
+    def check_pile_up(self):
+        if not self.top or self.returns == 0:
+            return
+        top = max(self.top)
+        pile = [v for v, c in self.top.items() if v >= top * (1 - PILE_UP_BAND) and c >= PILE_UP_REPEAT]
+        near = sum(self.top[v] for v in pile)
+        if pile and near > PILE_UP_SHARE * (self.returns + self.no_returns):
+            low = min(pile)
+            share = 100 * near / (self.returns + self.no_returns)
+            vals = f"the value {top:g} m" if len(pile) == 1 else f"{len(pile)} values from {low:g} to {top:g} m"
+            self.pile_up = (f"laser_no_return_suspect {near} readings ({share:.2f} % of all) repeat {vals}, the "
+                            f"top of the readings below the no-return limit: a no-return code the log does not "
+                            f"state? They are written as ranges; --no-return {low:g} writes them as nan")
+
+    # ---------------------------------------------------------------- the log
+    def emit(self, fl, t):
+        """Writes scan k's records at time t (the time of its paired odometry)."""
+        k = self.scans
+        x, y, th = fl.pose
+        if k == 0:
+            self.init = (x, y, th)
+            self.body.append(f"enc {t:.6f} 0 0")
+            self.t_end = t
+        self.heading(th)
+        self.body.append(f"truth {t:.6f} {x:.6f} {y:.6f} {th:.6f}")
+        if self.with_scans:
+            self.scan_record(fl, t)
+        if self.fix_every > 0 and k > 0 and k % self.fix_every == 0:
+            self.body.append(f"pose {t:.6f} {x:.6f} {y:.6f} {th:.6f} "
+                             f"{FIX_SIGMA[0]:g} {FIX_SIGMA[1]:g} {FIX_SIGMA[2]:g}")
+            self.fixes += 1
+        self.scans += 1
+        self.after_last = 0
+
+    def run(self, lines, params, counts, declared, path):
+        self.params, self.counts, self.declared = params, counts, declared
+        pose = None          # the pose the next sub-step starts from (None before the first scan)
+        n_raw = 0            # raw ODOM lines used since the last scan (or its anchor)
+        last_raw = None      # (Line, stamp) the last raw ODOM line (prefix lines too)
+        anchor_for = None    # the scan emitted last, while its anchor may still come
+        anchor_line = None   # line number of the last anchor
+        anchored = False     # the current frame is anchored at a corrected pose
+        pending = None       # a FLASER waiting for its paired ODOM line after it (--time stamps)
+        started = False
+        last_fl = None       # the scan emitted last, and whether its anchor came
+        last_fl_anchored = False
+
+        def close(a, b):
+            return abs(a[0] - b[0]) <= ANCHOR_TOL and abs(a[1] - b[1]) <= ANCHOR_TOL and \
+                abs(wrap(a[2] - b[2])) <= ANCHOR_TOL
+
+        def stop():
+            return self.max_scans is not None and self.scans >= self.max_scans
+
+        def use_raw(o):
+            nonlocal pose, n_raw, last_raw
+            if pose is None:
+                raise InputError(f"{o.where}: a raw ODOM line after the first scan (line {last_fl.no}), which has "
+                                 f"neither a paired ODOM line nor an anchor: its odometry frame is not related "
+                                 f"to the scan")
+            t = self.clock(o)
+            self.heading(o.pose[2])
+            self.substep(pose, o.pose, t)
+            pose = o.pose
+            n_raw += 1
+            last_raw = (o, None if self.order else self.stamp_of(o))
+            if self.scans > 0:
+                self.after_last += 1
+
+        def emitted(fl):
+            nonlocal anchor_for, n_raw, last_raw, anchored, started, last_fl, last_fl_anchored
+            anchor_for, n_raw, last_raw, anchored, started = fl, 0, None, False, True
+            last_fl, last_fl_anchored = fl, False
+
+        def first_scan(fl, pair):
+            """The first scan, at its own stamp; pair: its ODOM line (in the frame before it) or None."""
+            nonlocal pose
+            self.emit(fl, self.clock(fl))
+            pose = self.dead = None if pair is None else pair.pose
+            emitted(fl)
+
+        def unpaired(fl, after):
+            """fl has no paired odometry: the first scan needs none; otherwise fill or refuse."""
+            nonlocal pose
+            if not started:
+                first_scan(fl, None)
+                return
+            since = f"line {anchor_line}, the previous scan's anchor" if anchored else "the previous scan"
+            if n_raw > 0:
+                o, st = last_raw
+                raise InputError(f"{fl.where}: no ODOM line carries the FLASER's time stamp {fl.ts_text}: the "
+                                 f"last one before it (line {o.no}) is stamped {o.ts_text}{after}; the odometry "
+                                 f"at the scan's time is not in the file")
+            if self.missing != "flaser":
+                raise InputError(f"{fl.where}: the FLASER has no odometry: no raw ODOM line since {since}"
+                                 f"{after}, and its own odom fields repeat the corrected pose; "
+                                 f"--missing-odometry flaser takes them as the odometry")
+            if not anchored:
+                raise InputError(f"{fl.where}: the FLASER has no odometry since the previous scan and the "
+                                 f"odometry frame is not anchored at a corrected pose: its odom fields "
+                                 f"cannot stand in for it")
+            t = self.clock(fl)
+            self.substep(pose, fl.odom, t)
+            pose = fl.odom
+            self.fills += 1
+            self.emit(fl, t)
+            emitted(fl)
+
+        for o in lines:
+            if o.kind == "ODOM":
+                if pending is not None:
+                    st = self.stamp_of(o, required=False)
+                    pst = self.stamp_of(pending)
+                    if close(o.pose, pending.pose):
+                        unpaired(pending, f" (the next ODOM, line {o.no}, is its anchor)")
+                        pending = None
+                    elif st is not None and st == pst:
+                        if not started:
+                            self.prefix_odom += 1   # the first scan's pair: in the frame before it
+                            first_scan(pending, o)
+                        else:
+                            if stop():
+                                break
+                            use_raw(o)
+                            self.emit(pending, self.t)
+                            emitted(pending)
+                        pending = None
+                        continue
+                    elif st is not None and st < pst:
+                        if not started:
+                            self.prefix_odom += 1
+                            last_raw = (o, st)
+                        else:
+                            if stop():
+                                break
+                            use_raw(o)
+                        continue
+                    else:
+                        unpaired(pending, f" nor after it before line {o.no} (stamped {o.ts_text})")
+                        pending = None
+                if anchor_for is not None and close(o.pose, anchor_for.pose):
+                    pose = anchor_for.pose      # re-anchored; the line's stamp is not used
+                    self.dead = pose
+                    anchor_for, anchored, anchor_line = None, True, o.no
+                    n_raw, last_raw, last_fl_anchored = 0, None, True
+                    continue
+                if last_fl is not None and not last_fl_anchored and anchor_for is None and \
+                        close(o.pose, last_fl.pose):
+                    raise InputError(f"{o.where}: this ODOM line repeats the corrected pose of the FLASER on line "
+                                     f"{last_fl.no} (an anchor) after raw odometry lines: an anchor must follow "
+                                     f"its FLASER (and the FLASER's paired ODOM line)")
+                anchor_for = None               # no anchor: the odometry frame goes on
+                if not started:
                     self.prefix_odom += 1
-                    last_odom = ((x, y, th), ts_text, no)
-                elif state == "anchor":
-                    px, py, pth = last_scan_pose
-                    if abs(x - px) > ANCHOR_TOL or abs(y - py) > ANCHOR_TOL or abs(wrap(th - pth)) > ANCHOR_TOL:
-                        raise InputError(f"{where}: the ODOM line after a FLASER must repeat its corrected pose "
-                                         f"({px} {py} {pth}), got ({f[1]} {f[2]} {f[3]})")
-                    pose = last_scan_pose   # re-anchored; its timestamp is not used
-                    state = "segment"
-                    last_odom = None
-                else:  # segment: a raw sub-step
-                    if self.max_scans is not None and self.scans >= self.max_scans:
-                        break
-                    t = self.clock(ts)
-                    self.substep(pose, (x, y, th), t)
-                    pose = (x, y, th)
-                    last_odom = ((x, y, th), ts_text, no)
-                    if self.scans > 0:
-                        self.after_last += 1
-            elif kind == "FLASER":
-                x, y, th, ts, ts_text = parse_flaser(f, where)
-                if state == "anchor":
-                    raise InputError(f"{where}: two FLASER lines without the anchoring ODOM line between them")
-                if last_odom is None or float(last_odom[1]) != ts:
-                    raise InputError(f"{where}: a FLASER must follow an ODOM line with the same timestamp "
-                                     f"({ts_text}); the line before it is not one")
-                if self.max_scans is not None and self.scans >= self.max_scans:
+                    last_raw = (o, None if self.order else self.stamp_of(o, required=False))
+                    continue
+                if stop():
                     break
-                k = self.scans
-                if state == "prefix":
-                    t = self.clock(ts)
-                    self.init = (x, y, th)
-                    self.body.append(f"enc {t:.6f} 0 0")
-                    self.t_end = t
+                use_raw(o)
+            else:  # FLASER
+                if pending is not None:
+                    unpaired(pending, f" nor after it before the next FLASER (line {o.no})")
+                    pending = None
+                if stop():
+                    break
+                if anchor_for is not None:
+                    raise InputError(f"{o.where}: two FLASER lines with no ODOM line between them (line "
+                                     f"{anchor_for.no} and this one): neither the anchor that repeats the "
+                                     f"first one's corrected pose nor any odometry")
+                if self.order:
+                    if not started:
+                        first_scan(o, last_raw[0] if last_raw else None)
+                    elif n_raw > 0:
+                        self.emit(o, self.t)
+                        emitted(o)
+                    else:
+                        unpaired(o, "")
+                    continue
+                st = self.stamp_of(o)
+                if last_raw is not None and last_raw[1] is not None and last_raw[1] == st:
+                    if not started:
+                        first_scan(o, last_raw[0])
+                    else:
+                        self.emit(o, self.t)
+                        emitted(o)
+                elif started and n_raw > 0 and last_raw[1] > st:
+                    raise InputError(f"{o.where}: the FLASER (stamped {o.ts_text}) comes after odometry stamped "
+                                     f"later ({last_raw[0].ts_text}, line {last_raw[0].no}) and no ODOM line "
+                                     f"carries its stamp: its odometry cannot be placed")
                 else:
-                    t = self.t      # the time of the ODOM line just before
-                self.body.append(f"truth {t:.6f} {x:.6f} {y:.6f} {th:.6f}")
-                if self.with_scans:
-                    self.scan_record(f, t, where)
-                if self.fix_every > 0 and k > 0 and k % self.fix_every == 0:
-                    self.body.append(f"pose {t:.6f} {x:.6f} {y:.6f} {th:.6f} "
-                                     f"{FIX_SIGMA[0]:g} {FIX_SIGMA[1]:g} {FIX_SIGMA[2]:g}")
-                    self.fixes += 1
-                self.scans += 1
-                self.after_last = 0
-                last_scan_pose = (x, y, th)
-                state = "anchor"
-            # PARAM, NEFF and anything else: skipped
+                    pending = o
+        else:
+            if pending is not None:
+                unpaired(pending, " nor after it (the file ends)")
         if self.scans == 0:
             raise InputError(f"{path}: no FLASER line: nothing to convert")
+        if self.with_scans:
+            self.check_pile_up()
 
-    def text(self, digest, max_scans):
+    # ---------------------------------------------------------------- output
+    def text(self, digest, max_scans, name):
         h = []
         w = h.append
         x, y, th = self.init
+        title, credit = BUILDINGS.get(name, (None, None))
         w("odolog 1")
-        w("# Intel Research Lab (CARMEN, SLAM-corrected) converted by tools/import/carmen_to_odolog.py")
+        if title:
+            w(f"# {title} (CARMEN, SLAM-corrected) converted by tools/import/carmen_to_odolog.py")
+        else:
+            w(f"# CARMEN log {name} (SLAM-corrected) converted by tools/import/carmen_to_odolog.py")
         w("# enc: raw odometry sub-steps turned into the ticks of an equivalent differential drive")
         w("#      (d = 0.33 m, r = 0.0825 m, 4096 ticks/rev; mid-point model; sideways part dropped)")
         w("# truth: SLAM-corrected FLASER poses (a SLAM result, not motion capture)")
@@ -327,18 +842,22 @@ class Converter:
             w("#       so scoring against the truth below is partly circular (shared SLAM errors).")
         else:
             w("# No laser/scan/wall records (use --scans for the laser; the map is a separate file).")
-        w("meta source carmen intel-corrected")
-        w("meta credit recorded by Dirk Haehnel (Intel Research Lab, Seattle); distributed by Radish, "
-          "the Robotics Data Set Repository; SLAM-corrected copy from github.com/acschaefer/ple "
-          "data/carmen/intel-corrected.log.gz; no separate data licence stated")
+        w(f"meta source carmen {name}")
+        if credit:
+            w(f"meta credit {credit}; SLAM-corrected copy from github.com/acschaefer/ple "
+              f"data/carmen/{name}.log.gz; no separate data licence stated")
         w(f"meta source_sha256 {digest} (decompressed text)")
         w("meta importer tools/import/carmen_to_odolog.py")
         w(f"meta scans {self.scans}{'' if max_scans is None else f' (--max-scans {max_scans})'}; "
           f"odom sub-steps {self.substeps} ({self.after_last} after the last scan); "
           f"{self.prefix_odom} ODOM lines before the first scan dropped")
-        w(f"meta time synthetic t = max(ipc_timestamp, previous t + {TIME_STEP_MIN:g} s) in file order; "
-          f"{self.backwards} stamps went backwards and {self.repeats} repeated the previous one; "
-          f"{self.moved} of {self.stamps} written times differ from their stamp, by at most {self.max_shift:.3f} s")
+        if self.order:
+            w(f"meta time synthetic t = {ORDER_STEP:g} s per line used, in file order (--time order: the log's "
+              f"time stamps are not used); {self.stamps} lines")
+        else:
+            w(f"meta time synthetic t = max(ipc_timestamp, previous t + {TIME_STEP_MIN:g} s) in file order; "
+              f"{self.backwards} stamps went backwards and {self.repeats} repeated the previous one; "
+              f"{self.moved} of {self.stamps} written times differ from their stamp, by at most {self.max_shift:.3f} s")
         w(f"meta odometry path {self.path:.3f} m, rotation {self.rot:.3f} rad, "
           f"largest sub-step rotation {self.max_dth:.4f} rad, "
           f"dropped sideways motion {self.side_sum:.4f} m in all (at most {self.side_max:.4f} m per sub-step)")
@@ -350,46 +869,96 @@ class Converter:
         if self.with_scans:
             w(f"meta scans_written {self.scans} scans of {self.beams} beams: {self.returns} returns, "
               f"{self.no_returns} no-return beams written as nan")
+        # what was read, what was chosen and from where
+        kinds = [k for k in self.counts if k != "#"]
+        read = [k for k in kinds if k in READ_TYPES]
+        skipped = [k for k in kinds if k not in READ_TYPES]
+        w("meta carmen_messages " + ", ".join(f"{k} {self.counts[k]}" for k in kinds) +
+          f"; read: {' '.join(read) or 'none'}; skipped (counted only): {' '.join(skipped) or 'none'}"
+          + (f"; {self.counts['#']} comment lines" if "#" in self.counts else ""))
+        if self.declared is not None:
+            w("meta carmen_formats_declared " + (" ".join(self.declared) or "(none)") +
+              " (the log's '# message formats defined' line)")
+        pr = sorted(self.params.values(), key=lambda q: q.no)
+        w("meta carmen_params_read " + ("; ".join(f"{q.name} {q.text} (line {q.no})" for q in pr)
+                                        if pr else "none of " + " ".join(LASER_PARAMS)))
+        if not self.order:
+            w(f"meta time_stamps ipc_timestamp, or logger_timestamp where that is 0 or not usable: "
+              f"{self.from_logger} of {self.stamps} lines used took the logger's")
+        w("meta pairing each FLASER with the raw ODOM line of its time " +
+          ("(--time order: the last one before it since the previous scan's anchor)" if self.order else
+           "stamp (before it, or after it before its anchor)"))
+        w(f"meta odometry_gaps {self.fills} intervals without raw odometry" +
+          (" filled from the FLASER's own odom fields, i.e. the corrected pose (--missing-odometry flaser): "
+           "their ticks carry no odometry error" if self.fills else ""))
+        w(f"meta odometry_split {self.splits} of {self.substeps} sub-steps would have left the ticks more than "
+          f"{TRACK_POS_M:g} m or {TRACK_HEADING_RAD:g} rad from the logged odometry as one arc (their sideways "
+          f"parts: {self.split_side:.4f} m in all) and were written as an arc to the logged end point and a turn "
+          f"in place (at most {self.split_turn:.4f} rad)")
+        lo, hi = self.heading_range
+        w(f"meta headings differenced modulo 2 pi; the log's headings used run from {lo:g} to {hi:g} rad "
+          f"({'not ' if lo <= -math.pi or hi > math.pi else ''}all within (-pi, pi]), written as they are")
+        if self.with_scans:
+            for m in self.laser_meta:
+                w("meta " + m)
+            if self.pile_up:
+                w("meta " + self.pile_up)
         w("drive diff")
         w(f"param wheel_radius_m {WHEEL_RADIUS_M:g}")
         w(f"param ticks_per_rev {TICKS_PER_REV}")
         w(f"param wheelbase_m {WHEELBASE_M:g}")
         if self.with_scans:
-            w(f"laser {self.beams} {BEAM_MIN:.9f} {BEAM_STEP:.9f} {self.range_max:g} {self.range_sigma:g} 0 0 0")
+            start, step, rmax, mount = self.laser
+            w(f"laser {self.beams} {start:.9f} {step:.9f} {rmax:g} {self.range_sigma:g} "
+              f"{mount[0]:g} {mount[1]:g} {mount[2]:g}")
         w(f"init {x:.6f} {y:.6f} {th:.6f} {INIT_SIGMA[0]:g} {INIT_SIGMA[1]:g} {INIT_SIGMA[2]:g}")
         return "\n".join(h + self.body) + "\n"
 
 
 def main(argv=None):
     ap = Parser(prog="carmen_to_odolog.py",
-                description="Convert the SLAM-corrected Intel Research Lab CARMEN log to odolog v1.")
+                description="Convert a SLAM-corrected CARMEN log (FLASER + ODOM) to odolog v1.")
     ap.add_argument("log", metavar="LOG")
     ap.add_argument("--out", required=True, metavar="FILE")
     ap.add_argument("--max-scans", type=int, default=None, metavar="N",
                     help="stop after the N-th processed scan (default: all)")
     ap.add_argument("--fix-every", type=int, default=0, metavar="N",
                     help="a pose fix at every N-th scan (default 0: none)")
+    ap.add_argument("--time", choices=("stamps", "order"), default="stamps",
+                    help="stamps (default): the log's time stamps; order: 0.1 s per line used, in file "
+                         "order, for logs whose stamps are 0 or too coarse")
+    ap.add_argument("--missing-odometry", choices=("refuse", "flaser"), default="refuse",
+                    help="a scan with no raw odometry since the previous one: refuse (default), or take "
+                         "the FLASER's own odom fields (in a corrected log, the corrected pose)")
     ap.add_argument("--scans", action="store_true",
                     help="also write the laser record and a scan record per FLASER")
-    ap.add_argument("--range-max", type=float, default=30.0, metavar="M",
-                    help="the laser record's range_max (m), default 30 (with --scans)")
-    ap.add_argument("--range-sigma", type=float, default=0.03, metavar="S",
+    ap.add_argument("--range-max", type=float, default=None, metavar="M",
+                    help="the laser record's range_max (m); default PARAM robot_front_laser_max, else 30")
+    ap.add_argument("--range-sigma", type=float, default=RANGE_SIGMA_DEFAULT_M, metavar="S",
                     help="the laser record's range noise std (m), default 0.03 (with --scans)")
+    ap.add_argument("--no-return", type=float, default=None, metavar="M",
+                    help="readings >= M (m) are no return (nan); default PARAM robot_front_laser_max, else 80")
     a = ap.parse_args(argv)
-    if not (a.range_max > 0 and a.range_sigma > 0):
+    if not ((a.range_max is None or a.range_max > 0) and a.range_sigma > 0):
         ap.error("--range-max and --range-sigma must be > 0")
+    if a.no_return is not None and not a.no_return > 0:
+        ap.error("--no-return must be > 0")
     if a.max_scans is not None and a.max_scans < 1:
         ap.error("--max-scans must be >= 1")
     if a.fix_every < 0:
         ap.error("--fix-every must be >= 0")
     try:
         data, digest = read_text(a.log)
-        conv = Converter(a.max_scans, a.fix_every, a.scans, a.range_max, a.range_sigma)
-        conv.run(data, a.log)
-        write_atomic(a.out, conv.text(digest, a.max_scans))
+        lines, params, counts, declared = read_log(data, a.log)
+        conv = Converter(a.max_scans, a.fix_every, a.scans, a.range_max, a.range_sigma, a.no_return,
+                         a.time, a.missing_odometry)
+        conv.run(lines, params, counts, declared, a.log)
+        write_atomic(a.out, conv.text(digest, a.max_scans, source_name(a.log)))
     except InputError as e:
         sys.stderr.write(f"error: {e}\n")
         return 2
+    if conv.pile_up:
+        sys.stderr.write(f"note: {conv.pile_up.split(' ', 1)[1]}\n")
     sys.stderr.write(f"{a.out}: {conv.scans} scans, {conv.substeps} odometry sub-steps, "
                      f"{conv.fixes} pose fixes, {conv.t_end - float(conv.body[0].split()[1]):.1f} s, "
                      f"odometry path {conv.path:.2f} m\n")

@@ -36,13 +36,21 @@ Physical checks:
   -0.1..+0.9 %, rotation +0.2..+2.5 %: the ticks over-read turns a little, as wheel
   slip or a slightly larger effective wheelbase would).
 - --carmen-log LOG: the constants are the declared equivalent drive (0.0825 m, 4096,
-  0.33 m); the truth poses are the FLASER poses in order; for the scans in the file, the
-  raw odometry path (sum of the sub-step translations between consecutive ODOM lines of
-  each anchored segment) matches the path dead-reckoned from the ticks within --path-tol,
-  the absolute rotation likewise; and, interval by interval, dead-reckoning the ticks from
-  the corrected pose P_k lands on the raw odometry O_(k+1) (the ODOM line before the next
-  FLASER): the position and heading gaps are reported and must stay below 2 cm / 0.01
-  rad (they come only from the tick quantisation and the dropped sideways motion).
+  0.33 m); the truth poses are the FLASER poses in order. The log's intervals are read on
+  their own (carmen_scans: after a FLASER, the first ODOM repeating its pose is its anchor;
+  ODOM lines between a FLASER and its anchor belong to the interval before it when one of
+  them carries the FLASER's stamp). Interval by interval, the ticks are dead-reckoned from
+  the corrected pose P_k and must pass through EVERY raw ODOM line of the interval, up to
+  the one paired with the next scan, within 2 cm / 0.01 rad (one enc step per ODOM line,
+  or two where the importer wrote an arc and a turn in place: taken when the two land
+  closer). An interval with no raw odometry in the log must be declared (meta
+  odometry_gaps, the same count) and then ends at the next FLASER's odom fields. The
+  path and the absolute rotation summed per ODOM line match the raw odometry's within
+  --path-tol. With scan records: the laser's beam count is the FLASER's, each scan record
+  sits at its truth's time and repeats the FLASER's ranges, `nan` for the readings at or
+  above one no-return limit; the beam step and the mount's x equal the PARAMs
+  laser_front_laser_resolution and robot_frontlaser_offset where the log states them, and
+  the first beam is at -90 deg or at the start of a sector centred ahead.
 
 Exit status: 0 all checks pass, 1 a check fails (each failure printed as FILE:LINE: rule
 or FILE: what), 2 bad usage or unreadable input.
@@ -95,14 +103,18 @@ class Log:
         self.truth = []   # (t, x, y, th, line)
         self.pose = []
         self.scans = 0
+        self.scan_ranges = None   # [(t, [tokens])] when asked for (--carmen-log)
+        self.laser = None         # the laser record's 8 fields, as numbers
         self.unknown = 0
         self.order = []   # ('enc'|'truth'|..., index) in file order
 
 
-def check_format(path, any_enc_start):
+def check_format(path, any_enc_start, keep_scans=False):
     """Parses and validates; returns (Log, [errors])."""
     errs = []
     log = Log()
+    if keep_scans:
+        log.scan_ranges = []
     try:
         with open(path, "rb") as f:
             data = f.read()
@@ -171,6 +183,7 @@ def check_format(path, any_enc_start):
                     err(no, "laser RANGE_MAX and SIGMA must be positive")
                 else:
                     log.laser_n = int(args[0])
+                    log.laser = [number(a) for a in args]
             elif typ == "wall":
                 v = [number(a) for a in args]
                 if len(args) != 4:
@@ -233,6 +246,8 @@ def check_format(path, any_enc_start):
                     err(no, "scan range not a number (nan allowed)")
                 else:
                     log.scans += 1
+                    if keep_scans:
+                        log.scan_ranges.append((t, args[1:]))
             elif typ == "pose":
                 v = [number(a) for a in args]
                 if len(args) != 7:
@@ -352,26 +367,77 @@ def check_optiodom(log, path, csv, path_tol, rot_tol):
     return errs, info
 
 
-def carmen_intervals(lines):
-    """[(P_k, [raw ODOM poses after the anchor, up to the one before FLASER k+1])]."""
+CARMEN_TOL = 1e-4   # m / rad: an anchor ODOM repeats its FLASER's pose
+
+
+def carmen_scans(lines):
+    """The log's scans, in order: [pose, odom fields, ranges, stamp, subs], subs being the raw
+    ODOM poses of the interval from this scan to the next (after this scan's anchor, up to
+    and including the ODOM line paired with the next scan), and the PARAM values by name.
+
+    Read on its own from the CARMEN layout (not the importer's code): after FLASER k, the
+    first ODOM line that repeats its pose is its anchor and is skipped. ODOM lines between a
+    FLASER and its anchor belong to the interval before it when one of them carries the
+    FLASER's stamp (its odometry logged after it), up to that one; otherwise to the
+    interval after it."""
     scans = []
-    cur = None
-    skip_anchor = False
+    params = {}
+    after = None            # raw ODOM (pose, stamp) between the last FLASER and its anchor
+    prefix_stamp = None     # stamp of the last ODOM line before the first FLASER
+
+    def close(a, b):
+        return abs(a[0] - b[0]) <= CARMEN_TOL and abs(a[1] - b[1]) <= CARMEN_TOL and \
+            abs(wrap(a[2] - b[2])) <= CARMEN_TOL
+
+    def settle():
+        k = len(scans) - 1
+        if after is None or k < 0:
+            return
+        st = scans[k][3]
+        before = scans[k - 1][4][-1][1] if k > 0 and scans[k - 1][4] else (prefix_stamp if k == 0 else None)
+        idx = [i for i, (o, s2) in enumerate(after) if s2 == st] if st != 0 and before != st else []
+        if idx:
+            i = idx[-1]
+            if k > 0:
+                scans[k - 1][4].extend(after[:i + 1])
+            scans[k][4][:0] = after[i + 1:]
+        else:
+            scans[k][4][:0] = after
+
     for ln in lines:
         f = ln.split()
         if not f:
             continue
-        if f[0] == "FLASER":
+        if f[0] == "PARAM" and len(f) >= 3:
+            params.setdefault(f[1], f[2])
+        elif f[0] == "FLASER":
+            settle()
             n = int(f[1])
-            scans.append(((float(f[n + 2]), float(f[n + 3]), float(f[n + 4])), []))
-            cur = scans[-1][1]
-            skip_anchor = True
-        elif f[0] == "ODOM" and cur is not None:
-            if skip_anchor:
-                skip_anchor = False
-                continue
-            cur.append((float(f[1]), float(f[2]), float(f[3])))
-    return scans
+            v = [float(x) for x in f[n + 2:n + 9]]
+            scans.append([tuple(v[0:3]), tuple(v[3:6]), f[2:2 + n], v[6], []])
+            after = []
+        elif f[0] == "ODOM":
+            o = (float(f[1]), float(f[2]), float(f[3]))
+            st = float(f[7])
+            if not scans:
+                prefix_stamp = st
+            elif after is not None:
+                if close(o, scans[-1][0]):
+                    settle()
+                    after = None
+                else:
+                    after.append((o, st))
+            else:
+                scans[-1][4].append((o, st))
+    settle()
+    return scans, params
+
+
+def meta_count(log, key):
+    for k, v in log.meta:
+        if k == key and v.split() and INT.match(v.split()[0]):
+            return int(v.split()[0])
+    return None
 
 
 def check_carmen(log, path, src, path_tol):
@@ -379,7 +445,7 @@ def check_carmen(log, path, src, path_tol):
     if not expect_params(log, {"wheel_radius_m": 0.0825, "ticks_per_rev": 4096, "wheelbase_m": 0.33},
                          path, errs):
         return errs, info
-    scans = carmen_intervals(read_lines(src))
+    scans, params = carmen_scans(read_lines(src))
     m = len(log.truth)
     if m == 0 or m > len(scans):
         errs.append(f"{path}: {m} truth records, the log has {len(scans)} scans")
@@ -389,6 +455,13 @@ def check_carmen(log, path, src, path_tol):
         if max(abs(q[1] - p[0]), abs(q[2] - p[1]), abs(wrap(q[3] - p[2]))) > 2e-6:
             errs.append(f"{path}:{q[4]}: truth {k} is not FLASER pose {k} {p}")
             return errs, info
+    # intervals with no raw odometry in the log: the file must say it filled them
+    gaps = [k for k in range(m - 1) if not scans[k][4]]
+    declared = meta_count(log, "odometry_gaps") or 0
+    if len(gaps) != declared:
+        errs.append(f"{path}: {len(gaps)} intervals have no raw odometry in the log (the first: interval "
+                    f"{gaps[0] if gaps else '-'}), the file declares {declared} (meta odometry_gaps)")
+        return errs, info
     tick, d = diff_consts(log)
     # enc records between consecutive truth records, in file order
     groups = [[] for _ in range(m)]
@@ -406,49 +479,127 @@ def check_carmen(log, path, src, path_tol):
     raw_path = raw_rot = enc_path = enc_rot = 0.0
     worst_pos = worst_th = 0.0
     worst_k = -1
-    gaps = []
+    gaps_end = []
+    n_targets = n_two = 0
     for k in range(m - 1):
-        p0, subs = scans[k]
-        pts = [p0] + subs
-        for a, b in zip(pts, pts[1:]):
-            raw_path += math.hypot(b[0] - a[0], b[1] - a[1])
-            raw_rot += abs(wrap(b[2] - a[2]))
-        x, y, th = log.truth[k][1:4]
+        p0 = scans[k][0]
+        targets = [o for o, st in scans[k][4]] or [scans[k + 1][1]]
         g = groups[k]
-        for a, b in zip(g, g[1:]):
-            dr, dl = (b[1] - a[1]) * tick, (b[2] - a[2]) * tick
-            rho, dth = (dr + dl) / 2, (dr - dl) / d
-            x += rho * math.cos(th + dth / 2)
-            y += rho * math.sin(th + dth / 2)
-            th += dth
-            enc_path += abs(rho)
-            enc_rot += abs(dth)
-        if len(g) - 1 != len(subs):
-            errs.append(f"{path}: interval {k}: {len(g) - 1} enc steps for {len(subs)} ODOM sub-steps")
+        steps = [((b[1] - a[1]) * tick, (b[2] - a[2]) * tick) for a, b in zip(g, g[1:])]
+        extra = len(steps) - len(targets)
+        if not 0 <= extra <= len(targets):
+            errs.append(f"{path}: interval {k}: {len(steps)} enc steps for {len(targets)} ODOM sub-steps")
             return errs, info
-        o = subs[-1]
-        gp, gt = math.hypot(x - o[0], y - o[1]), abs(wrap(th - o[2]))
-        gaps.append(gp)
-        if gp > worst_pos:
-            worst_pos, worst_k = gp, k
-        worst_th = max(worst_th, gt)
-    gaps.sort()
-    med = gaps[len(gaps) // 2] if gaps else 0.0
-    info.append(f"scans {m}, intervals checked {m - 1}")
+        pose = tuple(log.truth[k][1:4])
+
+        def dr(p, st):
+            x, y, th = p
+            for r, l in st:
+                rho, dth = (r + l) / 2, (r - l) / d
+                x += rho * math.cos(th + dth / 2)
+                y += rho * math.sin(th + dth / 2)
+                th += dth
+            return x, y, th
+
+        def err(p, o):
+            return math.hypot(p[0] - o[0], p[1] - o[1]) + abs(wrap(p[2] - o[2]))
+
+        prev = p0
+        j = 0
+        for o in targets:
+            take = 1
+            if extra > 0 and j + 2 <= len(steps) and \
+                    err(dr(pose, steps[j:j + 2]), o) < err(dr(pose, steps[j:j + 1]), o):
+                take = 2
+            if j + take > len(steps):
+                errs.append(f"{path}: interval {k}: the enc steps run out before the ODOM sub-steps")
+                return errs, info
+            part = steps[j:j + take]
+            new = dr(pose, part)
+            enc_path += abs(sum((r + l) / 2 for r, l in part))
+            enc_rot += abs(wrap(sum((r - l) / d for r, l in part)))
+            raw_path += math.hypot(o[0] - prev[0], o[1] - prev[1])
+            raw_rot += abs(wrap(o[2] - prev[2]))
+            gp, gt = math.hypot(new[0] - o[0], new[1] - o[1]), abs(wrap(new[2] - o[2]))
+            if gp > worst_pos:
+                worst_pos, worst_k = gp, k
+            worst_th = max(worst_th, gt)
+            extra -= take - 1
+            n_two += take - 1
+            n_targets += 1
+            j += take
+            pose, prev = new, o
+        if j != len(steps):
+            errs.append(f"{path}: interval {k}: {len(steps) - j} enc steps left over after the ODOM sub-steps")
+            return errs, info
+        gaps_end.append(math.hypot(pose[0] - targets[-1][0], pose[1] - targets[-1][1]))
+    gaps_end.sort()
+    med = gaps_end[len(gaps_end) // 2] if gaps_end else 0.0
+    info.append(f"scans {m}, intervals checked {m - 1} ({len(gaps)} without raw odometry, filled as declared)")
+    info.append(f"ODOM sub-steps {n_targets}, {n_two} of them written as two enc steps (arc + turn)")
     info.append(f"path: ticks {enc_path:.3f} m, raw odometry {raw_path:.3f} m "
                 f"({(enc_path / raw_path - 1) * 100 if raw_path else 0:+.3f} %)")
     info.append(f"abs rotation: ticks {enc_rot:.3f} rad, raw odometry {raw_rot:.3f} rad "
                 f"({(enc_rot / raw_rot - 1) * 100 if raw_rot else 0:+.3f} %)")
-    info.append(f"per-interval end gap to raw odometry: median {med * 1000:.2f} mm, "
+    info.append(f"gap to the raw odometry at every ODOM line: interval ends median {med * 1000:.2f} mm, "
                 f"max {worst_pos * 1000:.2f} mm (interval {worst_k}), max heading {worst_th:.5f} rad")
     if raw_path > 0 and abs(enc_path / raw_path - 1) > path_tol:
         errs.append(f"{path}: dead-reckoned path {enc_path:.3f} m vs raw odometry {raw_path:.3f} m")
     if raw_rot > 0 and abs(enc_rot / raw_rot - 1) > path_tol:
         errs.append(f"{path}: dead-reckoned rotation {enc_rot:.3f} rad vs raw odometry {raw_rot:.3f} rad")
     if worst_pos > 0.02 or worst_th > 0.01:
-        errs.append(f"{path}: dead-reckoned interval ends miss the raw odometry by up to "
+        errs.append(f"{path}: dead-reckoned ticks miss the raw odometry by up to "
                     f"{worst_pos * 1000:.1f} mm / {worst_th:.4f} rad")
+    if log.laser is not None and log.scan_ranges is not None:
+        errs += check_carmen_laser(log, path, scans, params, info)
     return errs, info
+
+
+def check_carmen_laser(log, path, scans, params, info):
+    """The laser record and the scans against the FLASER lines and the PARAMs."""
+    errs = []
+    n, start, step, rmax, sigma, mx, my, myaw = log.laser
+    n = int(n)
+    if n != len(scans[0][2]):
+        return [f"{path}: laser N {n}, the log's FLASER lines have {len(scans[0][2])} beams"]
+    if len(log.scan_ranges) != len(log.truth):
+        return [f"{path}: {len(log.scan_ranges)} scan records for {len(log.truth)} truth records"]
+    span = (n - 1) * step
+    if min(abs(start + math.pi / 2), abs(start + span / 2), abs(start + (span + step) / 2)) > 1e-4:
+        errs.append(f"{path}: the first beam at {math.degrees(start):g} deg is neither -90 deg nor the "
+                    f"sector's centred start")
+    checks = []
+    if "laser_front_laser_resolution" in params:
+        want = math.radians(float(params["laser_front_laser_resolution"]))
+        checks.append(("step", step, want, "laser_front_laser_resolution"))
+    if "robot_frontlaser_offset" in params:
+        checks.append(("mount x", mx, float(params["robot_frontlaser_offset"]), "robot_frontlaser_offset"))
+    for what, got, want, name in checks:
+        if abs(got - want) > 1e-6:
+            errs.append(f"{path}: laser {what} {got:g}, PARAM {name} says {want:g}")
+    kept_max, nan_min, nans = -math.inf, math.inf, 0
+    for k, ((t, toks), sc) in enumerate(zip(log.scan_ranges, scans)):
+        if abs(t - log.truth[k][0]) > 1e-9:
+            errs.append(f"{path}: scan {k} at t={t}, its truth at t={log.truth[k][0]}")
+            break
+        for a, b in zip(toks, sc[2]):
+            v = float(b)
+            if a.lower() == "nan":
+                nan_min = min(nan_min, v)
+                nans += 1
+            elif float(a) != v:
+                errs.append(f"{path}: scan {k}: range {a}, the FLASER says {b}")
+                return errs
+            else:
+                kept_max = max(kept_max, v)
+    if nans and kept_max >= nan_min:
+        errs.append(f"{path}: no single no-return limit: {nan_min:g} m written as nan, {kept_max:g} m kept")
+    info.append(f"laser: {n} beams, first at {math.degrees(start):.4f} deg, {math.degrees(step):.4f} deg apart, "
+                f"mount x {mx:g} m; {len(log.scan_ranges)} scans equal to the FLASER ranges, {nans} nan "
+                f"(readings >= {nan_min:g} m)" if nans else
+                f"laser: {n} beams, first at {math.degrees(start):.4f} deg, {math.degrees(step):.4f} deg apart, "
+                f"mount x {mx:g} m; {len(log.scan_ranges)} scans equal to the FLASER ranges, no nan")
+    return errs
 
 
 def main(argv=None):
@@ -464,7 +615,7 @@ def main(argv=None):
     ap.add_argument("-q", "--quiet", action="store_true", help="print failures only")
     a = ap.parse_args(argv)
     try:
-        log, errs = check_format(a.file, a.any_enc_start)
+        log, errs = check_format(a.file, a.any_enc_start, keep_scans=bool(a.carmen_log))
         info = []
         if not errs and a.optiodom_csv:
             e2, info = check_optiodom(log, a.file, a.optiodom_csv, a.path_tol, a.rot_tol)
