@@ -375,27 +375,32 @@ def laser_geometry(n, params, where):
         cands = [("degrees", fov.value)]
         if fov.value <= 2 * math.pi + 1e-3:
             cands.append(("radians", math.degrees(fov.value)))
-        if step is not None:
+        if res is not None:
+            # two PARAMs: they must agree
             ok = [c for c in cands if fits(c[1], step)]
             if not ok:
                 raise InputError(f"{fov.where}: PARAM laser_front_laser_fov {fov.text} does not fit {n} beams "
                                  f"{step:g} deg apart ({step_src}): that makes {(n - 1) * step:g} deg from the "
                                  f"first beam to the last, {n * step:g} deg with one more step")
-            if len(ok) > 1:
-                raise InputError(f"{fov.where}: PARAM laser_front_laser_fov {fov.text} fits {n} beams read in "
-                                 f"degrees and in radians: the unit cannot be told")
-            unit, fov_deg = ok[0]
-            why = ("" if len(cands) == 1 or unit == "degrees" else
-                   f"; in degrees it would not fit {n} beams {step:g} deg apart")
         else:
-            if len(cands) > 1:
-                raise InputError(f"{fov.where}: PARAM laser_front_laser_fov {fov.text}: with no resolution and no "
-                                 f"beam-count rule for {n} beams, its unit (degrees or radians) cannot be told")
+            # the fov wins over the beam-count rule; the rule's step is kept where it fits, and it
+            # tells degrees from radians
             if n < 2:
                 raise InputError(f"{fov.where}: PARAM laser_front_laser_fov with a 1-beam laser: no step")
-            unit, fov_deg, why = "degrees", fov.value, ""
-            step = fov_deg / (n - 1)
-            step_src = f"the PARAM fov spread over the {n - 1} steps between {n} beams"
+            ok = [c for c in cands if step is not None and fits(c[1], step)]
+            if not ok and len(cands) > 1:
+                raise InputError(f"{fov.where}: PARAM laser_front_laser_fov {fov.text}: with no resolution, and "
+                                 f"no beam-count rule that fits it, its unit (degrees or radians) cannot be told")
+            if not ok:
+                ok = cands
+                step = cands[0][1] / (n - 1)
+                step_src = f"the PARAM fov spread over the {n - 1} steps between {n} beams"
+        if len(ok) > 1:
+            raise InputError(f"{fov.where}: PARAM laser_front_laser_fov {fov.text} fits {n} beams read in "
+                             f"degrees and in radians: the unit cannot be told")
+        unit, fov_deg = ok[0]
+        why = ("" if len(cands) == 1 or unit == "degrees" else
+               f"; in degrees it would not fit {n} beams {step:g} deg apart")
         start = -fov_deg / 2
         start_src = "-fov/2 (the sector centred ahead)"
         notes.append(f"fov {fov_deg:.6g} deg from PARAM laser_front_laser_fov {fov.text} (line {fov.no}, read in "
@@ -669,6 +674,7 @@ class Converter:
         started = False
         last_fl = None       # the scan emitted last, and whether its anchor came
         last_fl_anchored = False
+        with_anchors = None  # the layout, set by the first scan: anchored (True) or one frame (False)
 
         def close(a, b):
             return abs(a[0] - b[0]) <= ANCHOR_TOL and abs(a[1] - b[1]) <= ANCHOR_TOL and \
@@ -764,6 +770,8 @@ class Converter:
                         unpaired(pending, f" nor after it before line {o.no} (stamped {o.ts_text})")
                         pending = None
                 if anchor_for is not None and close(o.pose, anchor_for.pose):
+                    if with_anchors is None:
+                        with_anchors = True
                     pose = anchor_for.pose      # re-anchored; the line's stamp is not used
                     self.dead = pose
                     anchor_for, anchored, anchor_line = None, True, o.no
@@ -774,7 +782,14 @@ class Converter:
                     raise InputError(f"{o.where}: this ODOM line repeats the corrected pose of the FLASER on line "
                                      f"{last_fl.no} (an anchor) after raw odometry lines: an anchor must follow "
                                      f"its FLASER (and the FLASER's paired ODOM line)")
-                anchor_for = None               # no anchor: the odometry frame goes on
+                if anchor_for is not None:      # no anchor after the scan: the odometry frame goes on
+                    if with_anchors:
+                        raise InputError(f"{o.where}: the FLASER on line {anchor_for.no} has no anchor (an ODOM line "
+                                         f"repeating its corrected pose, right after it or its paired ODOM "
+                                         f"line), as the scans before it have: the frame of the odometry after "
+                                         f"it is not known")
+                    with_anchors = False
+                anchor_for = None
                 if not started:
                     self.prefix_odom += 1
                     last_raw = (o, None if self.order else self.stamp_of(o, required=False))
