@@ -1,23 +1,32 @@
 #!/usr/bin/env bash
 # check_importers.sh: runs the two dataset importers on the real data and checks what they
 # write. Usage: tools/import/check_importers.sh [--all] [--keep DIR] [--only optiodom|carmen]
+#                                               [--odoerr BIN]
 #   --all       every OptiOdom run (148 in the full data, about a minute) instead of run-01
 #               of each set
 #   --keep DIR  leave the outputs in DIR (default: a temporary folder, removed at the end)
 #   --only P    only the OptiOdom or only the CARMEN part (the two ctest entries)
+#   --odoerr B  the odoerr binary that replays each CARMEN building's output (default
+#               build/host/tools/odoerr/odoerr when it exists; without one, no replays)
 # The data (tools/import/data_dir.sh; docs/real-data.md, "Where the data comes from"): the
 # data folder is $ODOERR_DATA when set, else ../shared/data from the repository root. The
 # OptiOdom part reads its optiodom-diff, else the sample in tests/data/optiodom-diff (3
 # sets' run-01). The CARMEN part needs carmen/intel-corrected.log.gz in the data folder (no
 # sample: the logs state no licence); without it that part prints "skipped: ..." naming
-# ODOERR_DATA. Exit 77 when every part asked for is skipped, else 0 when every check passes,
-# 1 if not.
+# ODOERR_DATA. The four other buildings of carmen/ (aces, freiburg-079, csail, orebro) are
+# checked when present, each skipped with the same message when absent. Exit 77 when every
+# part asked for is skipped, else 0 when every check passes, 1 if not.
 #
 # Checks:
 # - every output passes odolog_check.py (an independent reader of the odolog v1 rules)
 #   together with its physical check: the ticks dead-reckoned with the file's nominal
 #   constants give the mocap path length / net rotation (OptiOdom) or the raw odometry
-#   path, rotation and interval end poses (CARMEN);
+#   path, rotation and the pose at every ODOM line (CARMEN);
+# - CARMEN: each of the five buildings imported with --scans and the options it needs
+#   (docs/real-data.md, "CARMEN logs: what the importer reads"), checked against its log
+#   (odolog_check.py --carmen-log: the ticks at every ODOM line, the scans against the FLASER
+#   ranges, the laser record against the PARAMs) and replayed by odoerr; csail and orebro
+#   without those options are refused, naming the line and the reason;
 # - each importer twice on the same input gives byte-identical output;
 # - a copy of an OptiOdom run with a UTF-8 byte-order mark converts to the same records;
 # - malformed copies (a non-numeric field, a wrong field count, time going backwards)
@@ -30,18 +39,21 @@ py="${PYTHON:-python3}"
 all=0
 keep=""
 only=""
+odoerr=""
 while [ $# -gt 0 ]; do
   case "$1" in
     --all) all=1 ;;
     --keep) keep="${2:?--keep needs a folder}"; shift ;;
+    --odoerr) odoerr="${2:?--odoerr needs the odoerr binary}"; shift ;;
     --only) only="${2:?--only needs optiodom or carmen}"; shift
             case "$only" in optiodom|carmen) ;; *) echo "$0: --only optiodom|carmen" >&2; exit 2 ;; esac ;;
-    *) echo "usage: $0 [--all] [--keep DIR] [--only optiodom|carmen]" >&2; exit 2 ;;
+    *) echo "usage: $0 [--all] [--keep DIR] [--only optiodom|carmen] [--odoerr BIN]" >&2; exit 2 ;;
   esac
   shift
 done
 
 . "$here/data_dir.sh"
+if [ -z "$odoerr" ] && [ -x "$root/build/host/tools/odoerr/odoerr" ]; then odoerr="$root/build/host/tools/odoerr/odoerr"; fi
 opt_data=""  # the folder holding optiodom-diff: the data folder, else the sample
 car_data=""  # the folder holding carmen/intel-corrected.log.gz: the data folder only
 skips=()
@@ -156,7 +168,7 @@ fi
 
 # ---------------------------------------------------------------- CARMEN
 if [ -n "$car_data" ]; then
-  echo "== CARMEN (Intel Research Lab, corrected), from $(odoerr_data_where "$car_data")"
+  echo "== CARMEN (the Intel Research Lab, then the five buildings, corrected), from $(odoerr_data_where "$car_data")"
   log="$car_data/carmen/intel-corrected.log.gz"
   o="$out/carmen-intel.odolog"
   t0=$(now)
@@ -193,6 +205,54 @@ expect_exit2 "carmen non-numeric ODOM x at line $ln_odom (.gz)" "$ln_odom" "$scr
 awk -v n="$ln_flaser" 'NR == n { $3 = "" } { print }' "$plain" >"$scratch/bad.log"
 expect_exit2 "carmen FLASER missing a range at line $ln_flaser" "$ln_flaser" "$scratch/bad.log" \
   "$scratch/bad.odolog" "$py" "$car" "$scratch/bad.log" --out "$scratch/bad.odolog"
+
+# The five buildings, each with the options it needs (docs/real-data.md, "CARMEN logs: what
+# the importer reads"): aces and orebro write a no-return code no PARAM states (50 m, 32.759
+# to 32.767 m); csail's stamps have 6 significant digits and orebro's are 0 (--time order);
+# orebro keeps raw odometry for 17 of its 236 intervals (--missing-odometry flaser).
+declare -A bopts=([intel]="" [aces]="--no-return 50" [freiburg-079]="" [csail]="--time order"
+                  [orebro]="--time order --missing-odometry flaser --no-return 32.759")
+printf '%s\n' "--   building      beams  laser record (N ANGLE_MIN ANGLE_INC RANGE_MAX SIGMA MOUNT)      scans   enc  split gaps"
+for b in intel aces freiburg-079 csail orebro; do
+  blog="$car_data/carmen/$b-corrected.log.gz"
+  if [ ! -e "$blog" ]; then echo "$(odoerr_data_skip_message "the CARMEN building $b" "carmen/$b-corrected.log.gz")"; continue; fi
+  bo="$out/carmen-$b-scans.odolog"
+  # shellcheck disable=SC2086
+  if ! msg="$("$py" "$car" "$blog" --out "$bo" --scans ${bopts[$b]} 2>&1)"; then fail "carmen $b import: $msg"; continue; fi
+  if res="$("$py" "$chk" "$bo" --carmen-log "$blog")"; then
+    pass "carmen $b --scans${bopts[$b]:+ ${bopts[$b]}}: checked against its log"
+  else
+    fail "carmen $b: check"
+  fi
+  echo "$res" | sed 's/^/     /'
+  printf -- '--   %-13s %5s  %-62s %5s %5s %5s %4s\n' "$b" "$(awk '/^laser /{print $2}' "$bo")" \
+    "$(grep '^laser ' "$bo" | cut -d' ' -f2-)" "$(grep -c '^truth ' "$bo")" "$(grep -c '^enc ' "$bo")" \
+    "$(awk '/^meta odometry_split /{print $3}' "$bo")" "$(awk '/^meta odometry_gaps /{print $3}' "$bo")"
+  if [ -n "$odoerr" ]; then
+    if rmsg="$("$odoerr" replay "$bo" --out "$scratch/replay-$b" 2>&1)" &&
+       "$py" -c "import json,sys; j=json.load(open(sys.argv[1])); sys.exit(0 if j['truth_records_scored'] == int(sys.argv[2]) else 1)" \
+         "$scratch/replay-$b/replay.json" "$(grep -c '^truth ' "$bo")"; then
+      pass "carmen $b: odoerr replay reads it (every truth record scored)"
+    else
+      fail "carmen $b: odoerr replay: $rmsg"
+    fi
+  fi
+done
+[ -n "$odoerr" ] || echo "--   no odoerr binary (--odoerr): the replays are skipped"
+# what those options are for: without them the importer refuses, naming the line and why
+if [ -e "$car_data/carmen/csail-corrected.log.gz" ]; then
+  expect_exit2 "carmen csail without --time order (stamps of 6 significant digits)" 184 \
+    "$car_data/carmen/csail-corrected.log.gz" "$scratch/bad.odolog" \
+    "$py" "$car" "$car_data/carmen/csail-corrected.log.gz" --out "$scratch/bad.odolog"
+fi
+if [ -e "$car_data/carmen/orebro-corrected.log.gz" ]; then
+  expect_exit2 "carmen orebro without --time order (stamps 0)" 2 \
+    "$car_data/carmen/orebro-corrected.log.gz" "$scratch/bad.odolog" \
+    "$py" "$car" "$car_data/carmen/orebro-corrected.log.gz" --out "$scratch/bad.odolog"
+  expect_exit2 "carmen orebro without --missing-odometry flaser (no raw odometry since the anchor)" 5 \
+    "$car_data/carmen/orebro-corrected.log.gz" "$scratch/bad.odolog" \
+    "$py" "$car" "$car_data/carmen/orebro-corrected.log.gz" --out "$scratch/bad.odolog" --time order
+fi
 fi
 
 echo
