@@ -215,7 +215,7 @@ declare -A bopts=([intel]="" [aces]="--no-return 50" [freiburg-079]="" [csail]="
 printf '%s\n' "--   building      beams  laser record (N ANGLE_MIN ANGLE_INC RANGE_MAX SIGMA MOUNT)      scans   enc  split gaps"
 for b in intel aces freiburg-079 csail orebro; do
   blog="$car_data/carmen/$b-corrected.log.gz"
-  if [ ! -e "$blog" ]; then echo "$(odoerr_data_skip_message "the CARMEN building $b" "carmen/$b-corrected.log.gz")"; continue; fi
+  if [ ! -e "$blog" ]; then odoerr_data_skip_message "the CARMEN building $b" "carmen/$b-corrected.log.gz"; continue; fi
   bo="$out/carmen-$b-scans.odolog"
   # shellcheck disable=SC2086
   if ! msg="$("$py" "$car" "$blog" --out "$bo" --scans ${bopts[$b]} 2>&1)"; then fail "carmen $b import: $msg"; continue; fi
