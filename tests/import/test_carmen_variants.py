@@ -86,7 +86,8 @@ def drive():
 
 
 def make_log(beams=180, params=(), order="before", zero_ipc=(), zero_both=None, stamp=None,
-             unwrap=False, others=False, missing=(), sparse=False, ranges=None, raw_flaser=False):
+             unwrap=False, others=False, missing=(), sparse=False, ranges=None, raw_flaser=False,
+             late_older=False):
     """The text of a synthetic corrected CARMEN log and {what: line number}."""
     true, raw = drive()
     scans = list(range(2, len(true), SCAN_EVERY))
@@ -131,6 +132,7 @@ def make_log(beams=180, params=(), order="before", zero_ipc=(), zero_both=None, 
     if others:
         add("SYNC 1 nohost 100.0")
     prev = None
+    pair = []
     for k, s in enumerate(scans):
         lo = 0 if prev is None else prev + 1
         for j in range(lo, s + 1):
@@ -140,16 +142,17 @@ def make_log(beams=180, params=(), order="before", zero_ipc=(), zero_both=None, 
                 continue
             else:
                 p = compose(true[prev], rel(raw[prev], raw[j]))  # anchored at the previous scan
-            if j == s and order == "after" and (k not in missing):
-                pair = (p, j)
+            if order == "after" and k not in missing and (j == s or (late_older and j == s - 1)):
+                pair.append((p, j))       # written after the FLASER
                 continue
             odom(p, j, "odom")
             if others and j % 7 == 3:
                 add(f"TRUEPOS {true[j][0]:.6f} {true[j][1]:.6f} {true[j][2]:.6f} {p[0]:.6f} {p[1]:.6f} "
                     f"{p[2]:.6f} {ts(j)} nohost {ts(j)}")
         flaser(k, s)
-        if order == "after" and k not in missing:
-            odom(pair[0], pair[1], "odom")
+        for p, j in pair:
+            odom(p, j, "odom")
+        pair = []
         odom(true[s], s, "anchor")
         out[-1] = re.sub(r" \S+ nohost \S+$", " 0 nohost 0", out[-1])   # the anchor's stamps are 0
         add(f"NEFF {30 - k * 0.5:g}")
@@ -350,6 +353,12 @@ def test_order_and_stamps(t):
         t.ok("ODOM after its FLASER: the same records as before it")
     elif body is not None:
         t.fail("ODOM after its FLASER: the records differ")
+    text, _ = make_log(order="after", late_older=True)
+    body = t.good("ODOM after FLASER, an older one first", "after2", text, "--scans")
+    if body is not None and records(body) == records(ref):
+        t.ok("two ODOM lines after their FLASER (the older first, then its own stamp): the same records")
+    elif body is not None:
+        t.fail("two ODOM lines after their FLASER: the records differ")
     text, _ = make_log(zero_ipc=("odom", "flaser"))
     body = t.good("ipc stamps 0, logger stamps set", "zero-ipc", text, "--scans")
     if body is not None and records(body) == records(ref) and \

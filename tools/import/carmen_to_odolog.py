@@ -20,11 +20,11 @@ refused, because the mapping below depends on it):
 - ODOM lines `ODOM x y theta tv rv accel ts host lts` are raw odometry. The first ODOM line
   after FLASER k that repeats P_k is its ANCHOR: it re-anchors the odometry at P_k (its
   time stamp is 0 or garbage and is not used). The jump into an anchor is the SLAM
-  correction, not motion: it is never turned into ticks. A log without anchors is read as
-  one continuous odometry frame.
+  correction, not motion: it is never turned into ticks. In a log whose first scan has an
+  anchor, every scan needs one (refused otherwise); a log without anchors is read as one
+  continuous odometry frame.
 - FLASER k is paired with the raw odometry at its time: the ODOM line of the same time
-  stamp, before the FLASER (Intel and three more buildings) or after it (before its
-  anchor). With --time order (stamps unusable) the pair is the last raw ODOM line before
+  stamp, before the FLASER (as in all five buildings) or after it (before its anchor). With --time order (stamps unusable) the pair is the last raw ODOM line before
   the FLASER. A FLASER with no raw odometry since the previous scan's anchor (orebro, 219
   of 236 intervals) is refused, unless --missing-odometry flaser: the FLASER's own odom
   fields (in a corrected log: the corrected pose) are then that interval's odometry, so
@@ -850,6 +850,10 @@ class Converter:
             w(f"# CARMEN log {name} (SLAM-corrected) converted by tools/import/carmen_to_odolog.py")
         w("# enc: raw odometry sub-steps turned into the ticks of an equivalent differential drive")
         w("#      (d = 0.33 m, r = 0.0825 m, 4096 ticks/rev; mid-point model; sideways part dropped)")
+        if self.splits:
+            w("#      where one arc would leave the ticks off the logged odometry: an arc, then a turn in place")
+        if self.fills:
+            w("# (intervals without raw odometry: the corrected pose stands in for it; meta odometry_gaps)")
         w("# truth: SLAM-corrected FLASER poses (a SLAM result, not motion capture)")
         if self.with_scans:
             w("# scan: the FLASER ranges (nan = no return); no wall records: the map is a separate file")
