@@ -2,11 +2,13 @@
 // parameters, K, the chosen catalogue effects and motion feature terms free) over
 // calibration logs in order, the parameters and their covariance carried from one log to
 // the next, the pose re-initialised from each log's init.
+#include <algorithm>
 #include <cmath>
 #include <memory>
 
 #include "diagnose/engine.hpp"
 #include "diagnose/model_search.hpp"
+#include "odoerr/scalar.hpp"
 #include "odoerr/sim/evaluate.hpp"
 
 namespace odoerr::sim {
@@ -236,6 +238,96 @@ bool chooseFixSigma(const std::vector<Odolog>& logs, const std::vector<std::stri
   c.sigma_theta = first->stheta * c.scale;
   *out = c;
   return true;
+}
+
+namespace {
+
+/// 1.4826 times the median absolute deviation: the sigma of a Gaussian sample, robust.
+double robustSigma(std::vector<double> v) {
+  if (v.empty()) return std::nan("");
+  auto median = [](std::vector<double>* a) {
+    const std::size_t m = a->size() / 2;
+    std::nth_element(a->begin(), a->begin() + static_cast<std::ptrdiff_t>(m), a->end());
+    double med = (*a)[m];
+    if (a->size() % 2 == 0) med = 0.5 * (med + *std::max_element(a->begin(), a->begin() + static_cast<std::ptrdiff_t>(m)));
+    return med;
+  };
+  const double med = median(&v);
+  for (double& x : v) x = std::abs(x - med);
+  return 1.4826 * median(&v);
+}
+
+}  // namespace
+
+FixNoise measureFixNoise(const Odolog& log) {
+  FixNoise n;
+  n.fixes = static_cast<long>(log.poses.size());
+  if (!log.poses.empty()) {
+    n.declared_xy = log.poses.front().sx;
+    n.declared_theta = log.poses.front().stheta;
+  }
+  n.sigma_xy = n.declared_xy;
+  n.sigma_theta = n.declared_theta;
+  if (log.poses.size() < 4) {
+    n.note = "fewer than 4 pose fixes: the declared sigmas are kept";
+    return n;
+  }
+  std::vector<double> times;
+  for (const OdologPose& q : log.poses) times.push_back(q.t);
+  std::vector<Pose2> odo;
+  std::string err;
+  if (!integrateOdometry(log, OdoConstants{}, times, &odo, &err)) {
+    n.note = "no odometry to carry the fixes (" + err + "): the declared sigmas are kept";
+    return n;
+  }
+  std::vector<double> exy, eth;
+  const auto& f = log.poses;
+  for (std::size_t a = 0; a + 3 < f.size(); ++a) {
+    // fix a carried by the odometry's relative motion to a+1..a+3; the residuals there
+    double r[3][3];
+    const double ca = std::cos(odo[a].th), sa = std::sin(odo[a].th);
+    const double cf = std::cos(f[a].theta), sf = std::sin(f[a].theta);
+    for (int k = 0; k < 3; ++k) {
+      const std::size_t j = a + 1 + static_cast<std::size_t>(k);
+      const double dx = odo[j].x - odo[a].x, dy = odo[j].y - odo[a].y;
+      const double lx = ca * dx + sa * dy, ly = -sa * dx + ca * dy;  // in the odometry's frame at a
+      const double px = f[a].x + cf * lx - sf * ly, py = f[a].y + sf * lx + cf * ly;
+      const double pth = f[a].theta + (odo[j].th - odo[a].th);
+      r[k][0] = f[j].x - px;
+      r[k][1] = f[j].y - py;
+      r[k][2] = wrapAngle(f[j].theta - pth);
+    }
+    const double dtm = f[a + 2].t - f[a + 1].t, dtp = f[a + 3].t - f[a + 2].t;
+    if (!(dtm > 0) || !(dtp > 0)) continue;
+    const double wm = 1 / dtm, wp = 1 / dtp, norm = std::sqrt(wm * wm + wp * wp + (wm + wp) * (wm + wp));
+    auto second = [&](double r1, double r2, double r3) { return (wp * (r3 - r2) - wm * (r2 - r1)) / norm; };
+    exy.push_back(second(r[0][0], r[1][0], r[2][0]));
+    exy.push_back(second(r[0][1], r[1][1], r[2][1]));
+    eth.push_back(second(0, wrapAngle(r[1][2] - r[0][2]), wrapAngle(r[1][2] - r[0][2]) + wrapAngle(r[2][2] - r[1][2])));
+  }
+  n.samples = static_cast<long>(eth.size());
+  if (n.samples < FixNoise::kMinSamples) {
+    n.note = "fewer than " + std::to_string(FixNoise::kMinSamples) +
+             " windows of four fixes to measure their noise on: the declared sigmas are kept";
+    return n;
+  }
+  const double sxy = robustSigma(exy), sth = robustSigma(eth);
+  if (!(sxy > 0) || !(sth > 0) || !std::isfinite(sxy) || !std::isfinite(sth)) {
+    n.note = "the measured noise is not positive (identical fixes?): the declared sigmas are kept";
+    return n;
+  }
+  n.sigma_xy = sxy;
+  n.sigma_theta = sth;
+  n.measured = true;
+  return n;
+}
+
+void setFixSigma(Odolog* log, const FixNoise& n) {
+  for (OdologPose& q : log->poses) {
+    q.sx = n.sigma_xy;
+    q.sy = n.sigma_xy;
+    q.stheta = n.sigma_theta;
+  }
 }
 
 }  // namespace odoerr::sim

@@ -114,6 +114,29 @@ struct FixSigmaChoice {
 bool chooseFixSigma(const std::vector<Odolog>& logs, const std::vector<std::string>& with,
                     const DiagnoseOptions& base, FixSigmaChoice* out, std::string* error);
 
+/// `odoerr evaluate`'s default (`--fix-sigma measured`): the noise of a log's pose fixes,
+/// measured in the fixes themselves. For every window of four consecutive fixes a..a+3, the
+/// odometry (nominal constants) carries fix a to the times of a+1..a+3; the residuals r_j
+/// (fix minus carried pose: x, y and heading) lose fix a's error and the odometry's slow
+/// drift in their second difference
+///   e = [w+ (r3 - r2) - w- (r2 - r1)] / sqrt(w+^2 + (w+ + w-)^2 + w-^2),  w = 1/dt,
+/// whose variance is the fixes' variance sigma^2 (plus the odometry's own random noise over
+/// the two intervals, which this does not remove). sigma is 1.4826 times the median absolute
+/// deviation of e (robust to the jumps where the motion changes): x and y pooled for the
+/// position, the heading alone. `measured` is false (and the sigmas are the declared ones)
+/// when the log has fewer than kMinSamples windows or a sigma comes out non-positive.
+struct FixNoise {
+  static constexpr long kMinSamples = 20;
+  long fixes = 0, samples = 0;
+  double sigma_xy = 0, sigma_theta = 0;        ///< measured (or the declared, when !measured)
+  double declared_xy = 0, declared_theta = 0;  ///< the log's first fix (x sigma, heading sigma)
+  bool measured = false;
+  std::string note;
+};
+FixNoise measureFixNoise(const Odolog& log);
+/// Every pose fix of `log` with the sigmas of `n` (x and y: sigma_xy).
+void setFixSigma(Odolog* log, const FixNoise& n);
+
 /// Borenstein's UMBmark from square runs (each a closed square of side `side_m`, the
 /// return error measured by the log's reference at its end against dead reckoning with the
 /// nominal constants): Ed, Eb and the corrected constants. A run's direction is the sign
