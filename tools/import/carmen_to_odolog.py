@@ -72,7 +72,8 @@ Mapping (format: docs/odolog.md):
   the readings below that limit pile up at their top (a no-return code the log does not
   state, as ACES's 50 m and Orebro's 32.76 m), a meta line and a note on stderr say so
   and name the --no-return that would take them. SIGMA: --range-sigma, 0.03 m. Every
-  choice and where it came from is written in `meta laser_*` lines. No `wall` records:
+  choice and where it came from is written in `meta laser_*` lines. These laser rules live
+  in carmen_laser.py, shared with the grid builder (`odoerr map grid-from-carmen`). No `wall` records:
   the map is a separate file (`odoerr map grid-from-carmen`, `odoerr map import`).
 - time, --time stamps (the default): each line used (the raw ODOM sub-steps and the first
   FLASER) is stamped with its ipc_timestamp, or its logger_timestamp when that is 0 or
@@ -111,6 +112,7 @@ import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from import_common import InputError, Parser, parse_number, read_bytes, run, write_atomic  # noqa: E402
+from carmen_laser import LASER_PARAMS, laser_setup, parse_param, pile_up  # noqa: E402  (shared with the grid)
 
 WHEEL_RADIUS_M = 0.0825
 TICKS_PER_REV = 4096
@@ -124,22 +126,10 @@ STAMP_STEP_MAX = 0.1       # s, the coarsest step a stamp in exponent form may h
 ANCHOR_TOL = 1e-4          # m / rad: an anchor ODOM must repeat the FLASER pose
 TRACK_POS_M = 0.01         # m, rad: when one arc would leave the ticks' pose farther than this
 TRACK_HEADING_RAD = 0.005  # from the logged odometry, the sub-step becomes arc + turn
-CARMEN_MAX_RANGE_M = 80.0  # CARMEN's maximum range of a FLASER without configuration
-RANGE_MAX_DEFAULT_M = 30.0
 RANGE_SIGMA_DEFAULT_M = 0.03
-# The beam-count rule: degrees between beams, first beam at -90 deg (CARMEN's reading of a
-# FLASER, carmen_laser_guess_angle_increment; its 180 and 360 beam logs dropped the last beam).
-BEAM_RULE_DEG = {180: 1.0, 181: 1.0, 360: 0.5, 361: 0.5}
-ANGLE_TOL_DEG = 0.01
-PILE_UP_BAND = 0.01        # reading values within 1 % of the largest one below the limit...
-PILE_UP_REPEAT = 5         # ...each repeated at least 5 times...
-PILE_UP_SHARE = 0.001      # ...in more than 0.1 % of all readings: a no-return code?
 
 INT_RE = re.compile(r"^\d+$")
 TYPE_RE = re.compile(r"^[A-Z][A-Z0-9_]*$")
-LASER_PARAMS = ("laser_front_laser_fov", "laser_front_laser_resolution", "laser_front_laser_flipped",
-                "robot_frontlaser_offset", "robot_frontlaser_side_offset",
-                "robot_frontlaser_angular_offset", "robot_front_laser_max")
 READ_TYPES = ("ODOM", "FLASER", "PARAM")
 
 # The five buildings of ../shared/data/carmen (README.md there): the comment line's title and
@@ -269,34 +259,6 @@ def truncated_note(last_line):
     return " (the file ends inside this line: truncated?)" if last_line else ""
 
 
-class Param:
-    __slots__ = ("name", "text", "value", "where", "no")
-
-
-def parse_param(f, where, no, params):
-    """Keeps the PARAMs the importer reads (LASER_PARAMS); the others are counted only."""
-    if len(f) < 3:
-        raise InputError(f"{where}: PARAM takes a name and a value, got {len(f) - 1} fields")
-    name = f[1]
-    if name not in LASER_PARAMS:
-        return
-    # PARAM name value [ipc_timestamp] host logger_timestamp
-    if len(f) not in (5, 6):
-        raise InputError(f"{where}: PARAM {name} takes 4 or 5 fields (name value [ts] host lts), got {len(f) - 1}")
-    p = Param()
-    p.name, p.text, p.where, p.no = name, f[2], where, no
-    if name == "laser_front_laser_flipped" and f[2] in ("on", "off"):
-        p.value = 1.0 if f[2] == "on" else 0.0
-    else:
-        p.value = parse_number(f[2], where, f"PARAM {name}")
-    old = params.get(name)
-    if old is not None and old.value != p.value:
-        raise InputError(f"{where}: PARAM {name} changes from {old.text} (line {old.no}) to {p.text}: "
-                         f"one odolog laser record cannot describe both")
-    if old is None:
-        params[name] = p
-
-
 def read_log(data, path):
     """(lines: [Line], params: {name: Param}, counts: {type: n} in order of appearance,
     declared: [types] or None)."""
@@ -342,88 +304,6 @@ def read_log(data, path):
         elif kind == "PARAM":
             parse_param(f, where, no, params)
     return lines, params, counts, declared
-
-
-def laser_geometry(n, params, where):
-    """(start_rad, step_rad, [notes]) for n beams: PARAM, else the beam-count rule."""
-    if not 1 <= n <= 4096:
-        raise InputError(f"{where}: FLASER with {n} beams: an odolog laser has 1 to 4096")
-    flipped = params.get("laser_front_laser_flipped")
-    if flipped is not None and flipped.value != 0:
-        raise InputError(f"{flipped.where}: PARAM laser_front_laser_flipped {flipped.text}: the beam order "
-                         f"of a flipped laser is not known to this importer")
-    rule = BEAM_RULE_DEG.get(n)
-    res = params.get("laser_front_laser_resolution")
-    fov = params.get("laser_front_laser_fov")
-    notes = []
-    if res is not None:
-        if not 0 < res.value <= 180:
-            raise InputError(f"{res.where}: PARAM laser_front_laser_resolution {res.text}: not a beam step in "
-                             f"degrees (0 to 180)")
-        step, step_src = res.value, f"PARAM laser_front_laser_resolution {res.text} (line {res.no}, degrees)"
-    elif rule is not None:
-        step, step_src = rule, f"the beam-count rule ({n} beams: {rule:g} deg apart, as CARMEN reads a FLASER)"
-    else:
-        step, step_src = None, None
-
-    def fits(fov_deg, s):
-        return abs((n - 1) * s - fov_deg) <= ANGLE_TOL_DEG or abs(n * s - fov_deg) <= ANGLE_TOL_DEG
-
-    if fov is not None:
-        if not fov.value > 0:
-            raise InputError(f"{fov.where}: PARAM laser_front_laser_fov {fov.text}: not a field of view")
-        cands = [("degrees", fov.value)]
-        if fov.value <= 2 * math.pi + 1e-3:
-            cands.append(("radians", math.degrees(fov.value)))
-        if res is not None:
-            # two PARAMs: they must agree
-            ok = [c for c in cands if fits(c[1], step)]
-            if not ok:
-                raise InputError(f"{fov.where}: PARAM laser_front_laser_fov {fov.text} does not fit {n} beams "
-                                 f"{step:g} deg apart ({step_src}): that makes {(n - 1) * step:g} deg from the "
-                                 f"first beam to the last, {n * step:g} deg with one more step")
-        else:
-            # the fov wins over the beam-count rule; the rule's step is kept where it fits, and it
-            # tells degrees from radians
-            if n < 2:
-                raise InputError(f"{fov.where}: PARAM laser_front_laser_fov with a 1-beam laser: no step")
-            ok = [c for c in cands if step is not None and fits(c[1], step)]
-            if not ok and len(cands) > 1:
-                raise InputError(f"{fov.where}: PARAM laser_front_laser_fov {fov.text}: with no resolution, and "
-                                 f"no beam-count rule that fits it, its unit (degrees or radians) cannot be told")
-            if not ok:
-                ok = cands
-                step = cands[0][1] / (n - 1)
-                step_src = f"the PARAM fov spread over the {n - 1} steps between {n} beams"
-        if len(ok) > 1:
-            raise InputError(f"{fov.where}: PARAM laser_front_laser_fov {fov.text} fits {n} beams read in "
-                             f"degrees and in radians: the unit cannot be told")
-        unit, fov_deg = ok[0]
-        why = ("" if len(cands) == 1 or unit == "degrees" else
-               f"; in degrees it would not fit {n} beams {step:g} deg apart")
-        start = -fov_deg / 2
-        start_src = "-fov/2 (the sector centred ahead)"
-        notes.append(f"fov {fov_deg:.6g} deg from PARAM laser_front_laser_fov {fov.text} (line {fov.no}, read in "
-                     f"{unit}{why})")
-        if abs((n - 1) * step - fov_deg) > ANGLE_TOL_DEG:
-            notes.append(f"the fov is {n} steps: the sector's last beam is not in the log")
-    else:
-        if step is None:
-            raise InputError(f"{where}: FLASER with {n} beams: no PARAM laser_front_laser_fov or "
-                             f"laser_front_laser_resolution and no beam-count rule for {n} beams (it knows "
-                             f"{', '.join(str(k) for k in sorted(BEAM_RULE_DEG))}): the beams' directions "
-                             f"are not known")
-        start, start_src = -90.0, "CARMEN's first FLASER beam (the robot's right)"
-    if (n - 1) * step > 360 + ANGLE_TOL_DEG:
-        raise InputError(f"{where}: {n} beams {step:g} deg apart span more than a turn")
-    if rule is not None and (res is not None or fov is not None):
-        if abs(step - rule) <= 1e-9 and abs(start + 90) <= ANGLE_TOL_DEG:
-            notes.append("the beam-count rule agrees")
-        else:
-            notes.append(f"PARAM overrides the beam-count rule (-90 deg, {rule:g} deg apart)")
-    head = (f"{n} beams counter-clockwise: the first at {start:.6g} deg from {start_src}; "
-            f"{step:.6g} deg apart from {step_src}")
-    return math.radians(start), math.radians(step), [head] + notes
 
 
 class Converter:
@@ -570,40 +450,15 @@ class Converter:
 
     # ---------------------------------------------------------------- scans
     def setup_laser(self, first):
-        n = first.n
-        start, step, notes = laser_geometry(n, self.params, first.where)
-        p = self.params
-        if self.range_max_opt is not None:
-            rmax, rsrc = self.range_max_opt, "--range-max"
-        elif "robot_front_laser_max" in p:
-            q = p["robot_front_laser_max"]
-            if not q.value > 0:
-                raise InputError(f"{q.where}: PARAM robot_front_laser_max {q.text}: not a range")
-            rmax, rsrc = q.value, f"PARAM robot_front_laser_max {q.text} (line {q.no})"
-        else:
-            rmax, rsrc = RANGE_MAX_DEFAULT_M, "the default (no PARAM robot_front_laser_max, no --range-max)"
-        if self.no_return_opt is not None:
-            self.no_return, nsrc = self.no_return_opt, "--no-return"
-        elif "robot_front_laser_max" in p:
-            q = p["robot_front_laser_max"]
-            self.no_return, nsrc = q.value, f"PARAM robot_front_laser_max {q.text} (line {q.no})"
-        else:
-            self.no_return, nsrc = CARMEN_MAX_RANGE_M, "CARMEN's maximum range of a FLASER (no PARAM states one)"
-        mount = []
-        msrc = []
-        for name, what in (("robot_frontlaser_offset", "x"), ("robot_frontlaser_side_offset", "y"),
-                           ("robot_frontlaser_angular_offset", "yaw")):
-            q = p.get(name)
-            mount.append(0.0 if q is None else q.value)
-            msrc.append(f"{what} {q.value:g} from PARAM {name} {q.text} (line {q.no})" if q is not None
-                        else f"{what} 0 (no PARAM {name})")
-        self.laser = (start, step, rmax, mount)
+        la = laser_setup(first.n, self.params, first.where, self.range_max_opt, self.no_return_opt)
+        self.no_return = la.no_return
+        self.laser = (la.start, la.step, la.range_max, list(la.mount))
         self.laser_meta = [
-            "laser_beams " + "; ".join(notes),
-            f"laser_range RANGE_MAX {rmax:g} m from {rsrc}; no return: readings >= {self.no_return:g} m "
-            f"written as nan, from {nsrc}; SIGMA {self.range_sigma:g} m "
+            "laser_beams " + "; ".join(la.beam_notes),
+            f"laser_range RANGE_MAX {la.range_max:g} m from {la.range_src}; no return: readings >= "
+            f"{la.no_return:g} m written as nan, from {la.no_return_src}; SIGMA {self.range_sigma:g} m "
             f"({'--range-sigma' if self.range_sigma != RANGE_SIGMA_DEFAULT_M else 'the default, a declared value'})",
-            "laser_mount " + "; ".join(msrc) + " (the corrected pose is taken as the robot's)",
+            "laser_mount " + "; ".join(la.mount_src) + " (the corrected pose is taken as the robot's)",
         ]
         self.top = {}               # reading -> count, the readings below the no-return limit
 
@@ -629,18 +484,11 @@ class Converter:
         self.body.append(f"scan {t:.6f} " + " ".join(out))
 
     def check_pile_up(self):
-        if not self.top or self.returns == 0:
+        if self.returns == 0:
             return
-        top = max(self.top)
-        pile = [v for v, c in self.top.items() if v >= top * (1 - PILE_UP_BAND) and c >= PILE_UP_REPEAT]
-        near = sum(self.top[v] for v in pile)
-        if pile and near > PILE_UP_SHARE * (self.returns + self.no_returns):
-            low = min(pile)
-            share = 100 * near / (self.returns + self.no_returns)
-            vals = f"the value {top:g} m" if len(pile) == 1 else f"{len(pile)} values from {low:g} to {top:g} m"
-            self.pile_up = (f"laser_no_return_suspect {near} readings ({share:.2f} % of all) repeat {vals}, the "
-                            f"top of the readings below the no-return limit: a no-return code the log does not "
-                            f"state? They are written as ranges; --no-return {low:g} writes them as nan")
+        p = pile_up(self.top, self.returns + self.no_returns)
+        if p is not None:
+            self.pile_up = p[1]
 
     # ---------------------------------------------------------------- the log
     def emit(self, fl, t):
