@@ -7,7 +7,7 @@ the circles of the other direction (both ways), and on the ivanjko runs (another
 
 Usage: run_optiodom_evaluate.py OUT_DIR [--odoerr BIN] [--data DIR]
                                 [--fix-sigma-xy M] [--fix-sigma-theta RAD]
-                                [--evaluate-fix-sigma logs|auto|cv|XY,THETA]
+                                [--evaluate-fix-sigma logs|measured|auto|cv|XY,THETA]
                                 [--evaluate-with TERMS|cv] [--quick]
 The data: --data, else optiodom-diff in the data folder (import_common.data_dir():
 $ODOERR_DATA, else ../shared/data from the repository root). --quick takes the runs named
@@ -104,7 +104,8 @@ def crossValidate(odoerr, cal, candidates, out_dir, folds=5):
             if not held or not rest:
                 continue
             out = os.path.join(out_dir, "cv.json")
-            run([odoerr, "evaluate", "--calibrate", *rest, "--test", *held, "--json", out, *args])
+            keep = [] if "--fix-sigma" in args else ["--fix-sigma", "logs"]  # the imported sigmas (evaluate's old default)
+            run([odoerr, "evaluate", "--calibrate", *rest, "--test", *held, "--json", out, *args, *keep])
             r2 = [p for p in json.load(open(out))["rpe_by_length"] if p["length_m"] == 2][0]["calibrated"]
             if r2 and r2["segments"]:
                 segs += r2["segments"]
@@ -131,7 +132,8 @@ def main():
                          "square runs (calibration data only)")
     ap.add_argument("--fix-sigma-theta", default="auto", help="the fixes' heading sigma (rad); auto as above")
     ap.add_argument("--evaluate-fix-sigma", default="logs",
-                    help="odoerr evaluate's --fix-sigma for each split's calibration: logs (default: the imported sigmas as they are), auto (the imported "
+                    help="odoerr evaluate's --fix-sigma for each split's calibration: logs (default: the imported sigmas as they are), "
+                         "measured (evaluate's own default: each log's fixes' noise, measured in them), auto (the imported "
                          "sigmas times the scale that makes the calibration logs' pose-fix NIS per dof 1), "
                          "cv (cross-validated inside each split's calibration logs, crossValidateFixSigma), "
                          "or XY,THETA (docs/real-data.md: why auto is not the default here)")
@@ -225,7 +227,7 @@ def main():
             cv = {"chosen": best, "candidates": table}
             fix = ["--fix-sigma", "%.9g,%.9g" % (best["sigma_xy_m"], best["sigma_theta_rad"])]
         else:
-            fix = ["--fix-sigma", a.evaluate_fix_sigma] if a.evaluate_fix_sigma != "logs" else []
+            fix = ["--fix-sigma", a.evaluate_fix_sigma]
         for tag, const in (("umbmark", umb["as_constants_option"]), ("authors", AUTHORS)):
             out = os.path.join(a.out, "evaluate-%d-%s.json" % (len(results), tag))
             run([a.odoerr, "evaluate", "--calibrate", *cal, "--test", *test, "--json", out, "--constants", const, *fix,
@@ -291,8 +293,8 @@ def main():
            "|---|---|---|---|---|---|---|---|---|---|"]
     for r in results:
         c, g, fs, nis = r["calibrated"], r["growth"], r["fix_sigma"], r["pose_fix_nis"]
-        sxy = fs.get("sigma_xy_m", float(a.fix_sigma_xy))
-        sth = fs.get("sigma_theta_rad", float(a.fix_sigma_theta))
+        sxy = fs.get("sigma_xy_m", fs.get("median_sigma_xy_m") or float(a.fix_sigma_xy))  # measured: the median
+        sth = fs.get("sigma_theta_rad", fs.get("median_sigma_theta_rad") or float(a.fix_sigma_theta))
         nf = lambda v: "—" if v is None else "%.2f" % v
         md.append("| %s | %.3f | %.2f | %s / %s / %s | %.5f | %.5f | %.5f | %.3g | %s | %s |" % (
             r["split"], sxy * 1e3, sth * 1e3, nf(nis["per_dof"]), nf(nis["xy_per_dof"]), nf(nis["heading_per_dof"]),
