@@ -26,7 +26,8 @@ import numpy as np
 from scipy import ndimage
 from scipy.spatial import cKDTree
 
-from segfit import drop_specks, fit_metrics, fits, point_segment_distance, segment_from, tls_fit  # noqa: F401
+from segfit import (drop_specks, fit_metrics, fits, point_segment_distance, segment_from, segment_samples,  # noqa: F401
+                    tls_fit)
 from skeleton import close_small_gaps, thin, trace_chains
 
 DEFAULTS = dict(min_cells=4, spur_cells=3, tol_cells=1.0, merge_gap_cells=2.0, min_points=2, hole_cells=4,
@@ -96,6 +97,15 @@ def merge(segs, pts_list, tol, gap, max_angle_deg=15.0):
     return [segs[i] for i in keep], [pts_list[i] for i in keep]
 
 
+def _distance_to(pts, seg):
+    """Distance from each point (N x 2) to one segment (x1, y1, x2, y2)."""
+    a, ab = seg[0:2], seg[2:4] - seg[0:2]
+    ap = pts - a
+    t = np.clip((ap * ab).sum(axis=1) / max((ab ** 2).sum(), 1e-18), 0.0, 1.0)
+    d = ap - t[:, None] * ab
+    return np.sqrt((d ** 2).sum(axis=1))
+
+
 def bridge(segs, pts_list, occ, tol, max_gap, max_angle_deg=10.0, covered=1.5, short=4.0):
     """Joins two collinear segments (at less than max_angle_deg when both are `short` cells
     or longer; else one line must fit both) across a gap of up to max_gap cells when the gap is NOT
@@ -146,19 +156,20 @@ def bridge(segs, pts_list, occ, tol, max_gap, max_angle_deg=10.0, covered=1.5, s
             joined.append(i)
         if not joined:
             break
+        # the jogs under each joined segment, all short segments at once (a long corridor
+        # joins hundreds of pieces among thousands of segments)
+        S = np.array(segs)
+        is_short = np.hypot(S[:, 2] - S[:, 0], S[:, 3] - S[:, 1]) < short
         for i in joined:
             if not alive[i]:
                 continue
-            a, b = segs[i][0:2], segs[i][2:4]
-            for k in range(len(segs)):
-                if k == i or not alive[k]:
-                    continue
-                sk = segs[k]
-                if np.hypot(sk[2] - sk[0], sk[3] - sk[1]) >= short:
-                    continue
-                d = point_segment_distance(sk.reshape(2, 2), np.array([np.concatenate([a, b])]))
-                if d.max() <= 2 * tol:
-                    alive[k] = False
+            cand = np.flatnonzero(is_short & np.array(alive))
+            cand = cand[cand != i]
+            if len(cand) == 0:
+                continue
+            d = np.maximum(_distance_to(S[cand, 0:2], S[i]), _distance_to(S[cand, 2:4], S[i]))
+            for k in cand[d <= 2 * tol]:
+                alive[k] = False
     keep = [i for i in range(len(segs)) if alive[i]]
     return [segs[i] for i in keep], [pts_list[i] for i in keep]
 
@@ -170,9 +181,13 @@ def snap_junctions(segs, reach):
     segs = [np.array(s, dtype=float) for s in segs]
     if len(segs) < 2:
         return segs
-    mids = np.array([(s[0:2] + s[2:4]) / 2 for s in segs])
-    half = max(np.hypot(s[2] - s[0], s[3] - s[1]) for s in segs) / 2
-    tree = cKDTree(mids)
+    # the candidates for an end e: the new end x lies within reach of e and on the other
+    # segment's line within reach of its extent, so e lies within 2 reach of that segment:
+    # the segments with a point sampled every `reach` along them within 2.5 reach of e
+    S = np.array(segs)
+    ab = S[:, 2:4] - S[:, 0:2]
+    spts, owner = segment_samples(S[:, 0:2], ab, np.hypot(ab[:, 0], ab[:, 1]), reach)
+    tree = cKDTree(spts)
     orig = [s.copy() for s in segs]
     for i, s in enumerate(orig):
         d = s[2:4] - s[0:2]
@@ -183,7 +198,7 @@ def snap_junctions(segs, reach):
         for end in (0, 1):
             e = s[0:2] if end == 0 else s[2:4]
             best = None
-            for j in tree.query_ball_point(e, half + reach):
+            for j in np.unique(owner[tree.query_ball_point(e, 2.5 * reach)]):
                 if j == i:
                     continue
                 o = orig[j]

@@ -53,37 +53,60 @@ def fits(pts, tol):
     return (d > tol).mean() <= 0.1
 
 
-def point_segment_distance(pts, segs, chunk=4096, return_index=False):
+def segment_samples(a, ab, L, h):
+    """Points every h (at most) along each segment, both ends included, and the index of
+    the segment of each point."""
+    n = np.ceil(L / h).astype(np.int64) + 1
+    owner = np.repeat(np.arange(len(L)), n)
+    k = np.arange(int(n.sum())) - np.repeat(np.cumsum(n) - n, n)
+    t = k / (n[owner] - 1).clip(min=1)
+    return a[owner] + t[:, None] * ab[owner], owner
+
+
+def point_segment_distance(pts, segs, chunk=8192, return_index=False):
     """Distance (N) from each point to the nearest of the segments (M x 4); with
-    return_index, also that segment's index."""
+    return_index, also that segment's index (the lowest one among equally near segments).
+
+    Exact, and fast however long the segments: each segment is sampled every h (the mean
+    segment length), so any point of a segment lies within h/2 of a sample; the segments
+    that may be nearest to a point q are those with a sample within d_n + h/2 of q, d_n
+    being q's distance to the nearest sample; the exact distance is taken over those."""
+    pts = np.asarray(pts, dtype=float).reshape(-1, 2)
     if len(segs) == 0:
         d = np.full(len(pts), np.inf)
         return (d, np.full(len(pts), -1)) if return_index else d
+    segs = np.asarray(segs, dtype=float)
     a, b = segs[:, 0:2], segs[:, 2:4]
     ab = b - a
     ll = np.maximum((ab ** 2).sum(axis=1), 1e-18)
-    tree = cKDTree((a + b) / 2)
-    half = float(np.sqrt(ll).max()) / 2
+    L = np.sqrt((ab ** 2).sum(axis=1))
+    h = max(float(L.mean()), 1e-9)
+    spts, owner = segment_samples(a, ab, L, h)
+    tree = cKDTree(spts)
+    slack = h / 2 * (1 + 1e-9) + 1e-12
     out = np.empty(len(pts))
-    arg = np.empty(len(pts), dtype=int)
+    arg = np.empty(len(pts), dtype=np.int64)
     for k in range(0, len(pts), chunk):
         q = pts[k:k + chunk]
-        # candidates: segments whose midpoint lies within (nearest midpoint distance + half
-        # the longest segment); exact, because a segment lies within half its length of its midpoint
-        dmid, _ = tree.query(q)
-        best = np.full(len(q), np.inf)
-        besti = np.full(len(q), -1)
-        cand = tree.query_ball_point(q, dmid + half)
-        for i, cs in enumerate(cand):
-            cs = np.asarray(cs, dtype=int)
-            ap = q[i] - a[cs]
-            t = np.clip((ap * ab[cs]).sum(axis=1) / ll[cs], 0.0, 1.0)
-            d = ap - t[:, None] * ab[cs]
-            dd = np.sqrt((d ** 2).sum(axis=1))
-            m = int(np.argmin(dd))
-            best[i], besti[i] = dd[m], cs[m]
-        out[k:k + chunk] = best
-        arg[k:k + chunk] = besti
+        dn, _ = tree.query(q)
+        lists = tree.query_ball_point(q, dn + slack)
+        cnt = np.fromiter((len(x) for x in lists), dtype=np.int64, count=len(lists))
+        pi = np.repeat(np.arange(len(q)), cnt)
+        si = owner[np.fromiter((j for x in lists for j in x), dtype=np.int64, count=int(cnt.sum()))]
+        # one (point, segment) pair each: a segment has several samples near a point
+        key = np.unique(pi * len(segs) + si)
+        pi, si = key // len(segs), key % len(segs)
+        ap = q[pi] - a[si]
+        t = np.clip((ap * ab[si]).sum(axis=1) / ll[si], 0.0, 1.0)
+        dv = ap - t[:, None] * ab[si]
+        dd = np.sqrt((dv ** 2).sum(axis=1))
+        # pairs are sorted by point, then segment: the first minimum of each point
+        order = np.lexsort((si, dd, pi))
+        first = np.ones(len(order), dtype=bool)
+        first[1:] = pi[order][1:] != pi[order][:-1]
+        sel = order[first]
+        out[k:k + chunk] = dd[sel]
+        arg[k:k + chunk] = si[sel]
     return (out, arg) if return_index else out
 
 
