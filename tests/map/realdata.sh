@@ -98,9 +98,12 @@ else
 fi
 
 if res="$(cd "$root/tools/map" && "$py" -c "
+import math
 import carmen_grid as cg
-sc = cg.read_scans('$log', 100)
-r = cg.beam_geometry_check(sc)
+log = cg.read_log('$log', 100)
+g = log.geometry
+r = cg.beam_geometry_check(log.scans, [('1 deg (the beam-count rule)', g),
+                                       ('180/179 deg', cg.Geometry(g.start, math.pi / 179, g.mount))])
 print(' vs '.join(f\"{x['step']}: {x['returns_on_occupied'] * 100:.1f} % of returns on occupied cells\" for x in r))
 raise SystemExit(0 if r[0]['returns_on_occupied'] > r[1]['returns_on_occupied'] else 1)
 ")"; then pass "beam step, first 100 scans: $res"; else fail "beam step: $res"; fi

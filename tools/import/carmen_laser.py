@@ -10,14 +10,16 @@ Standard library only. The rules (docs/real-data.md, "CARMEN logs: what the impo
   one step past it) and the first beam is at -fov/2. Another beam count without those
   PARAMs, PARAMs that do not fit the beam count, and a flipped laser are refused;
 - the mount: PARAM robot_frontlaser_offset (m ahead of the robot's origin),
-  robot_frontlaser_side_offset and robot_frontlaser_angular_offset, else 0;
+  robot_frontlaser_side_offset and robot_frontlaser_angular_offset, else 0 (the importer
+  puts it in its laser record; the grid builder reports it and casts the beams from the
+  FLASER pose, which CARMEN writes as the laser's own: docs/map-format.md has the measure);
 - the range: RANGE_MAX from the caller's option, else PARAM robot_front_laser_max, else a
   default; a reading at or above the no-return limit is no return: the caller's option
   (--no-return), else PARAM robot_front_laser_max, else 80 m (CARMEN's maximum range of a
   FLASER);
 - a no-return code no PARAM states: when the readings below the limit pile up at their top
-  (the same few values, each repeated, in more than 0.1 % of all readings), `pile_up_note`
-  says so and names the --no-return that would take them; the caller does not decide it.
+  (the same few values, each repeated, in more than 0.1 % of all readings), `pile_up`
+  says so and gives the --no-return that would take them; the caller does not decide it.
 """
 
 import math
@@ -198,8 +200,8 @@ def laser_setup(n, params, where, range_max=None, no_return=None, range_max_defa
 def pile_up(top, total):
     """top: {reading (m): count} of the readings below the no-return limit; total: all
     readings (returns and no returns). When the readings pile up at their top (a no-return
-    code the log does not state): (the lowest reading of the pile, a note starting
-    'laser_no_return_suspect' that names the --no-return taking them); else None."""
+    code the log does not state): (the lowest reading of the pile, which --no-return would
+    take, and what piles up: 'N readings (S % of all) repeat the value V m'); else None."""
     if not top or total == 0:
         return None
     hi = max(top)
@@ -210,6 +212,4 @@ def pile_up(top, total):
     low = min(pile)
     share = 100 * near / total
     vals = f"the value {hi:g} m" if len(pile) == 1 else f"{len(pile)} values from {low:g} to {hi:g} m"
-    return low, (f"laser_no_return_suspect {near} readings ({share:.2f} % of all) repeat {vals}, the "
-                 f"top of the readings below the no-return limit: a no-return code the log does not "
-                 f"state? They are written as ranges; --no-return {low:g} writes them as nan")
+    return low, f"{near} readings ({share:.2f} % of all) repeat {vals}"

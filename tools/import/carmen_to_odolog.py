@@ -488,7 +488,10 @@ class Converter:
             return
         p = pile_up(self.top, self.returns + self.no_returns)
         if p is not None:
-            self.pile_up = p[1]
+            low, what = p
+            self.pile_up = (f"laser_no_return_suspect {what}, the top of the readings below the no-return limit: "
+                            f"a no-return code the log does not state? They are written as ranges; --no-return "
+                            f"{low:g} writes them as nan")
 
     # ---------------------------------------------------------------- the log
     def emit(self, fl, t):

@@ -4,9 +4,9 @@
     odoerr_map.py import MAP.yaml --out MAP.odomap [--png P] [--method skeleton|ransac] [--faces]
     odoerr_map.py render MAP.odomap [--grid MAP.yaml] --out P.png
     odoerr_map.py grid-from-carmen LOG --out PREFIX [--resolution R] [--max-range M]
-                  [--max-scans N] [--beam-step DEG]
+                  [--max-scans N] [--no-return M] [--beam-step DEG]
     odoerr_map.py compare MAP.yaml [MAP.yaml...]   (the extraction methods side by side)
-    odoerr_map.py scan-residuals MAP.odomap LOG [--every K] [--beam-step DEG]
+    odoerr_map.py scan-residuals MAP.odomap LOG [--every K] [--no-return M] [--beam-step DEG]
                   (the scans of a corrected CARMEN log against the map, at the corrected poses)
 
 Exit status: 0 done, 2 bad input (the message names the file and the problem), 1 other.
@@ -14,6 +14,7 @@ docs/map-format.md documents the format and the methods.
 """
 
 import argparse
+import math
 import os
 import sys
 
@@ -88,10 +89,29 @@ def cmd_grid(a):
         raise rosmap.MapError("--resolution and --max-range must be > 0")
     if a.max_scans is not None and a.max_scans < 1:
         raise rosmap.MapError("--max-scans must be >= 1")
+    if a.no_return is not None and not a.no_return > 0:
+        raise rosmap.MapError("--no-return must be > 0")
+    if a.beam_step is not None and not 0 < a.beam_step <= 10:
+        raise rosmap.MapError("--beam-step must be in (0, 10] degrees")
     d = os.path.dirname(os.path.abspath(a.out))
     if not os.path.isdir(d):
         raise rosmap.MapError(f"{a.out}: the folder {d} does not exist")
-    g, st = carmen_grid.grid_from_log(a.log, a.out, a.resolution, a.max_range, a.max_scans, a.beam_step)
+    g, st = carmen_grid.grid_from_log(a.log, a.out, a.resolution, a.max_range, a.max_scans, a.no_return,
+                                      a.beam_step)
+    la = st["laser"]
+    if st["step_override"] is not None and abs(math.radians(st["step_override"]) - la.step) > 1e-12:
+        print(f"{PROG} grid-from-carmen: note: --beam-step {st['step_override']:g} overrides the log's "
+              f"{math.degrees(la.step):.6g} deg ({la.beam_notes[0].split(' from ')[-1]})", file=sys.stderr)
+    if st["pile_up"] is not None and a.no_return is None:
+        low, what = st["pile_up"]
+        print(f"{PROG} grid-from-carmen: note: {what}, the top of the readings below the no-return limit: a "
+              f"no-return code the log does not state? They are used as returns (beyond --max-range they clear "
+              f"up to it); --no-return {low:g} leaves them out", file=sys.stderr)
+    print(f"{PROG} grid-from-carmen: {st['scans']} scans of {st['beams']}; {st['mount']}; no return at or above "
+          f"{la.no_return:g} m (from {la.no_return_src}): {st['no_returns']} of {st['readings']} readings; "
+          f"{st['read_seconds']:.1f} s to read; of the {st['returns']} returns within {a.max_range:g} m, "
+          f"{st['returns_on'] * 100:.1f} % land on an occupied cell, {st['returns_near'] * 100:.1f} % within one "
+          f"cell of one", file=sys.stderr)
     print(f"{PROG} grid-from-carmen: {st['scans']} scans -> {st['cols']} x {st['rows']} cells of "
           f"{a.resolution:g} m: {st['occupied']} occupied, {st['free']} free, {st['unknown']} unknown; "
           f"{st['seconds']:.1f} s; wrote {st['pgm']} and {st['yaml']}", file=sys.stderr)
@@ -113,11 +133,14 @@ def cmd_compare(a):
 
 
 def cmd_residuals(a):
-    import math
     import scan_check
     segs = odomap.read_walls(a.map)
-    scans = carmen_grid.read_scans(a.log, a.max_scans)
-    res, missed = scan_check.residuals(scans, segs, math.radians(a.beam_step), a.max_range, a.every)
+    log = carmen_grid.read_log(a.log, a.max_scans, a.no_return)
+    geo = log.geometry
+    if a.beam_step is not None:
+        geo = carmen_grid.Geometry(geo.start, math.radians(a.beam_step), geo.mount)
+    scans = log.scans
+    res, missed = scan_check.residuals(scans, segs, geo, a.max_range, a.every)
     s = scan_check.summary(res, missed)
     print(f"{PROG} scan-residuals: {a.map} against {len(scans[::a.every])} scans of {a.log}: {s['returns']} returns "
           f"hit a segment ({s['no_segment']} hit none); measured - predicted: median {s['median_m'] * 100:.2f} cm, "
@@ -149,8 +172,11 @@ def main(argv=None):
     p.add_argument("--resolution", type=float, default=0.05, metavar="R", help="cell size (m), default 0.05")
     p.add_argument("--max-range", type=float, default=20.0, metavar="M", help="usable range (m), default 20")
     p.add_argument("--max-scans", type=int, default=None, metavar="N", help="only the first N scans")
-    p.add_argument("--beam-step", type=float, default=1.0, metavar="DEG",
-                   help="angle between beams (deg), default 1 (measured: docs/map-format.md)")
+    p.add_argument("--no-return", type=float, default=None, metavar="M",
+                   help="readings >= M (m) are no return and not used; default PARAM robot_front_laser_max, "
+                        "else 80 (as the importer)")
+    p.add_argument("--beam-step", type=float, default=None, metavar="DEG",
+                   help="override the angle between beams (deg); default the log's (beam count, PARAM)")
     p.set_defaults(fn=cmd_grid)
     p = sub.add_parser("compare", help="the extraction methods side by side (a Markdown table)")
     p.add_argument("maps", nargs="+", metavar="MAP.yaml")
@@ -162,7 +188,8 @@ def main(argv=None):
     p.add_argument("--every", type=int, default=1, metavar="K", help="every K-th scan (default 1)")
     p.add_argument("--max-scans", type=int, default=None, metavar="N")
     p.add_argument("--max-range", type=float, default=20.0, metavar="M")
-    p.add_argument("--beam-step", type=float, default=1.0, metavar="DEG")
+    p.add_argument("--no-return", type=float, default=None, metavar="M")
+    p.add_argument("--beam-step", type=float, default=None, metavar="DEG")
     p.set_defaults(fn=cmd_residuals)
     a = ap.parse_args(argv)
     if getattr(a, "every", 1) < 1:

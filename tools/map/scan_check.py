@@ -4,11 +4,9 @@ This tells whether a map (and the beam geometry) agrees with the scans before an
 estimator runs; a map built from the same log shares the SLAM system's errors, so it is a
 consistency check, not an accuracy figure."""
 
-import math
-
 import numpy as np
 
-from carmen_grid import ANGLE_MIN, NO_RETURN_M
+from carmen_grid import _beams
 
 
 def ray_cast(x, y, angles, segs):
@@ -24,18 +22,18 @@ def ray_cast(x, y, angles, segs):
     return np.where(ok, s, np.inf).min(axis=1)
 
 
-def residuals(scans, segs, step=math.radians(1.0), max_range=20.0, every=1):
+def residuals(scans, segs, geo, max_range=20.0, every=1):
     """Measured minus predicted range (m) of the returns (<= max_range) that hit a segment,
-    over every `every`-th scan; and how many returns had no segment to hit."""
+    over every `every`-th scan; and how many returns had no segment to hit. scans: from
+    carmen_grid.read_log (no return as nan); geo: its carmen_grid.Geometry."""
     segs = np.asarray(segs, dtype=float)
     out, missed = [], 0
-    for (x, y, th), r, _ in scans[::every]:
-        ang = th + ANGLE_MIN + step * np.arange(len(r))
+    for s in scans[::every]:
+        x, y, ang, reach, m = _beams(s, geo, max_range)
         pred = ray_cast(x, y, ang, segs)
-        m = (r < NO_RETURN_M) & (r <= max_range)
         hit = m & np.isfinite(pred)
         missed += int((m & ~hit).sum())
-        out.append(r[hit] - pred[hit])
+        out.append(reach[hit] - pred[hit])
     res = np.concatenate(out) if out else np.zeros(0)
     return res, missed
 

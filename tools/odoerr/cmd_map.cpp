@@ -62,7 +62,7 @@ void registerMapCommands(CLI::App& app, cli::Commands& cmds) {
 
   struct GridOpts {
     std::string log, out;
-    double resolution = 0.05, max_range = 20.0, beam_step = 1.0;
+    double resolution = 0.05, max_range = 20.0, no_return = 0.0, beam_step = 0.0;
     int max_scans = 0;
   };
   auto go = std::make_shared<GridOpts>();
@@ -73,12 +73,20 @@ void registerMapCommands(CLI::App& app, cli::Commands& cmds) {
   grd->add_option("--resolution", go->resolution, "cell size (m), default 0.05")->check(CLI::Range(1e-3, 10.0));
   grd->add_option("--max-range", go->max_range, "usable laser range (m), default 20")->check(CLI::Range(0.1, 80.0));
   grd->add_option("--max-scans", go->max_scans, "only the first N scans (default: all)")->check(CLI::PositiveNumber);
-  grd->add_option("--beam-step", go->beam_step, "angle between beams (deg), default 1")->check(CLI::Range(0.01, 10.0));
-  cmds.add(grd, [go]() {
-    std::vector<std::string> a{"grid-from-carmen", go->log,          "--out",       go->out,
-                               "--resolution",     num(go->resolution), "--max-range", num(go->max_range),
-                               "--beam-step",      num(go->beam_step)};
+  // The laser as the importer reads it (beam count, PARAM lines; docs/real-data.md); these override.
+  CLI::Option* no_ret = grd->add_option("--no-return", go->no_return,
+                                        "readings >= M (m) are no return and not used; default PARAM "
+                                        "robot_front_laser_max, else 80 (as odoerr import carmen)")
+                            ->check(CLI::PositiveNumber);
+  CLI::Option* step = grd->add_option("--beam-step", go->beam_step,
+                                      "override the angle between beams (deg); default the log's (beam count, PARAM)")
+                          ->check(CLI::Range(0.01, 10.0));
+  cmds.add(grd, [go, no_ret, step]() {
+    std::vector<std::string> a{"grid-from-carmen", go->log, "--out", go->out, "--resolution", num(go->resolution),
+                               "--max-range", num(go->max_range)};
     if (go->max_scans > 0) a.insert(a.end(), {"--max-scans", std::to_string(go->max_scans)});
+    if (no_ret->count() > 0) a.insert(a.end(), {"--no-return", num(go->no_return)});
+    if (step->count() > 0) a.insert(a.end(), {"--beam-step", num(go->beam_step)});
     return cli::runPython(mapScript(), a);
   });
 }
