@@ -48,9 +48,17 @@ def cmd_import(a):
     if a.faces and a.method != "skeleton":
         raise rosmap.MapError("--faces applies to the skeleton method only")
     segs, st = extract.extract(g, a.method, **params)
-    if len(segs) == 0:
-        raise rosmap.MapError(f"{a.map}: no segment extracted ({st['occupied_cells']} occupied cells, "
-                              f"{st['dropped_cells']} of them in specks): nothing to write")
+    why = extract.map_problems(g, segs, st)
+    if why:
+        drawn = ""
+        if a.png and st["occupied_cells"]:
+            import render
+            render.render(a.png, segs, g, title=f"{os.path.basename(a.map)}: refused, {len(segs)} segments")
+            drawn = f" (drawn in {a.png})"
+        raise rosmap.MapError(f"{a.map}: no map in this grid: " + "; ".join(why) + f"{drawn}. Nothing written to "
+                              f"{a.out}. A grid built from a laser log gives this when its scans disagree: a "
+                              f"wrong beam geometry, poses that are not corrected, or cells too small for the "
+                              f"scans (docs/map-format.md)")
     fm = extract.fit_metrics(g, segs, st["params"]["min_cells"])
     p = st["params"]
     meta = [("source", f"odoerr map import {os.path.abspath(a.map)}"),
