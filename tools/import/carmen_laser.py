@@ -174,18 +174,18 @@ def laser_setup(n, params, where, range_max=None, no_return=None, range_max_defa
     q = params.get("robot_front_laser_max")
     if q is not None and (range_max is None or no_return is None) and not q.value > 0:
         raise InputError(f"{q.where}: PARAM robot_front_laser_max {q.text}: not a range")
-    if range_max is not None:
-        la.range_max, la.range_src = range_max, "--range-max"
-    elif q is not None:
-        la.range_max, la.range_src = q.value, f"PARAM robot_front_laser_max {q.text} (line {q.no})"
-    else:
-        la.range_max, la.range_src = range_max_default, "the default (no PARAM robot_front_laser_max, no --range-max)"
-    if no_return is not None:
-        la.no_return, la.no_return_src = no_return, "--no-return"
-    elif q is not None:
-        la.no_return, la.no_return_src = q.value, f"PARAM robot_front_laser_max {q.text} (line {q.no})"
-    else:
-        la.no_return, la.no_return_src = CARMEN_MAX_RANGE_M, "CARMEN's maximum range of a FLASER (no PARAM states one)"
+    def choose(given, option, default, default_src):
+        """The option when given, else PARAM robot_front_laser_max, else the default; with its source."""
+        if given is not None:
+            return given, option
+        if q is not None:
+            return q.value, f"PARAM robot_front_laser_max {q.text} (line {q.no})"
+        return default, default_src
+
+    la.range_max, la.range_src = choose(range_max, "--range-max", range_max_default,
+                                        "the default (no PARAM robot_front_laser_max, no --range-max)")
+    la.no_return, la.no_return_src = choose(no_return, "--no-return", CARMEN_MAX_RANGE_M,
+                                            "CARMEN's maximum range of a FLASER (no PARAM states one)")
     mount, msrc = [], []
     for name, what in (("robot_frontlaser_offset", "x"), ("robot_frontlaser_side_offset", "y"),
                        ("robot_frontlaser_angular_offset", "yaw")):
