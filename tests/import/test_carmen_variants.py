@@ -185,8 +185,8 @@ class Run:
 
     def write(self, name, text):
         p = os.path.join(self.work, name)
-        with open(p, "w", encoding="ascii", newline="") as f:
-            f.write(text)
+        with open(p, "wb") as f:  # bytes as given: a test may write a line that is not text
+            f.write(text if isinstance(text, bytes) else text.encode("ascii"))
         return p
 
     def imp(self, name, text, *opts):
@@ -449,6 +449,10 @@ def test_missing_and_sparse(t):
 def test_damage(t):
     base, w = make_log()
     lines = base.split("\n")
+    raw = [ln.encode("ascii") for ln in lines]
+    raw[4] += b" \xe9"
+    t.refused("a byte that is not ASCII (Latin-1 e acute)", "not-ascii", b"\n".join(raw), 5,
+              "the line is not ASCII text")
 
     def damaged(no, new):
         c = list(lines)

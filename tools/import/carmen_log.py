@@ -5,7 +5,7 @@ carmen_laser.py's."""
 
 import re
 
-from import_common import InputError, parse_number
+from import_common import InputError, decoded_lines, parse_number
 from carmen_laser import parse_param
 
 STAMP_STEP_MAX = 0.1       # s, the coarsest step a stamp in exponent form may have
@@ -101,12 +101,7 @@ def read_log(data, path):
     raw_lines = data.split(b"\n")
     last_no = len(raw_lines) - 1 if raw_lines and raw_lines[-1] == b"" else len(raw_lines)
     ends_open = not data.endswith(b"\n")
-    for no, raw in enumerate(raw_lines, start=1):
-        where = f"{path}:{no}"
-        try:
-            line = raw.decode("ascii")
-        except UnicodeDecodeError:
-            raise InputError(f"{where}: the line is not ASCII text") from None
+    for no, where, line in decoded_lines(raw_lines, path, "ascii", "ASCII text"):
         f = line.split()
         if not f:
             continue

@@ -68,6 +68,17 @@ def read_lines(path):
         raise InputError(f"{path}: not UTF-8 text") from None
 
 
+def decoded_lines(lines, path, encoding, name):
+    """(no, where, text) for each line of `lines` (bytes, split on b"\n"), numbered from 1, where
+    = "PATH:NO"; a line that is not `encoding` is an InputError "PATH:NO: the line is not NAME"."""
+    for no, raw in enumerate(lines, start=1):
+        where = f"{path}:{no}"
+        try:
+            yield no, where, raw.decode(encoding)
+        except UnicodeDecodeError:
+            raise InputError(f"{where}: the line is not {name}") from None
+
+
 def read_bytes(path):
     """The bytes of a file, gunzipped when it is gzip data; InputError naming the file."""
     try:

@@ -57,7 +57,7 @@ import os
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from import_common import InputError, Parser, parse_number, run, write_atomic  # noqa: E402
+from import_common import InputError, Parser, decoded_lines, parse_number, run, write_atomic  # noqa: E402
 
 
 WHEEL_DIAMETER_M = 0.084
@@ -89,12 +89,7 @@ def read_rows(path):
     rows = []
     prev_t = None
     names = ("time", "x", "y", "theta", "nR", "nL")
-    for no, raw in enumerate(data.split(b"\n"), start=1):
-        where = f"{path}:{no}"
-        try:
-            line = raw.decode("utf-8")
-        except UnicodeDecodeError:
-            raise InputError(f"{where}: the line is not valid UTF-8 text") from None
+    for no, where, line in decoded_lines(data.split(b"\n"), path, "utf-8", "valid UTF-8 text"):
         line = line.strip()
         if not line:
             continue  # blank lines (the final newline, a CRLF leftover) carry nothing
