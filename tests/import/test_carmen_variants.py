@@ -34,6 +34,7 @@ with the importer), and, when ODOERR is given, some are replayed by `odoerr repl
 Exit status 0 when everything holds, 1 otherwise (each failure printed).
 """
 import argparse
+import json
 import math
 import os
 import re
@@ -446,6 +447,54 @@ def test_missing_and_sparse(t):
             t.fail("sparse odometry: no sub-step split")
 
 
+def test_auto(t):
+    """--auto: each refusal that names an option, and the no-return pile-up, become a choice
+    said on stderr, in a meta line and in --choices; a given option is never overridden, and
+    a log that needs no choice imports byte-identically."""
+    def same(text):  # the records and meta lines, without the source's name and the choices
+        return [ln for ln in text.splitlines() if not ln.startswith(("#", "meta source", "meta choice_"))]
+    base, _ = make_log()
+    plain = t.good("the standard layout", "auto-std-plain", base, "--scans")
+    choices = os.path.join(t.work, "auto-std.json")
+    body = t.good("--auto on the standard layout", "auto-std", base, "--scans", "--auto", "--choices", choices)
+    if plain is not None and body is not None and same(body) == same(plain):
+        c = json.load(open(choices))
+        if not any(v["chosen"] for v in c.values()) and "not taken as a code" in c["no_return"]["reason"]:
+            t.ok("--auto on a log that needs no choice: the plain import's records; the ranges' top pile-up "
+                 "(a far wall seen often) is not taken as a no-return code, and the reason says why")
+        else:
+            t.fail(f"--auto on the standard layout: choices {c}")
+    elif plain is not None:
+        t.fail("--auto changed a log that needs no choice")
+    cases = [
+        ("coarse stamps", make_log(stamp=lambda t: f"{1134860000 + t:g}")[0], "time", "order",
+         ("--time", "order")),
+        ("scans without raw odometry", make_log(missing=(3, 7))[0], "missing_odometry", "flaser",
+         ("--missing-odometry", "flaser")),
+        ("a no-return code no PARAM states",
+         make_log(ranges=lambda k: ["50" if i % 9 == 0 else f"{3 + 0.01 * i + 0.001 * k:.3f}"
+                                    for i in range(180)])[0], "no_return", 50.0, ("--no-return", "50")),
+    ]
+    for what, text, key, value, hand in cases:
+        name = "auto-" + key
+        choices = os.path.join(t.work, name + ".json")
+        body = t.good(f"--auto, {what}", name, text, "--scans", "--auto", "--choices", choices)
+        handmade = t.good(f"{' '.join(hand)}, {what}", name + "-hand", text, "--scans", *hand)
+        if body is None or handmade is None:
+            continue
+        c = json.load(open(choices))
+        line = meta(body, "choice_" + key)
+        rest, hand_rest = same(body), same(handmade)
+        if c[key]["chosen"] and c[key]["value"] == value and c[key]["reason"] and line and rest == hand_rest \
+                and not any(c[k]["chosen"] for k in c if k != key):
+            t.ok(f"--auto, {what}: chose {hand[0]} {value} ({c[key]['reason'][:70]}...), the same records as {' '.join(hand)}")
+        else:
+            t.fail(f"--auto, {what}: choices {c}, meta {line}, same as by hand {rest == hand_rest}")
+    text, w = make_log(stamp=lambda t: f"{1134860000 + t:g}")
+    t.refused("--auto does not override a given --time stamps", "auto-given", text, w["flaser0"],
+              "a step of 10000 s", "--auto", "--time", "stamps")
+
+
 def test_damage(t):
     base, w = make_log()
     lines = base.split("\n")
@@ -523,7 +572,7 @@ def main():
     t = Run(work, a.odoerr if a.odoerr and os.path.exists(a.odoerr) else None)
     try:
         for test in (test_beam_counts, test_param_geometry, test_offset_and_range, test_order_and_stamps,
-                     test_headings, test_other_messages, test_missing_and_sparse, test_damage, test_replay):
+                     test_headings, test_other_messages, test_missing_and_sparse, test_auto, test_damage, test_replay):
             test(t)
     finally:
         if not a.work:

@@ -197,6 +197,22 @@ def laser_setup(n, params, where, range_max=None, no_return=None, range_max_defa
     return la
 
 
+ISOLATED_RATIO = 10        # a pile taken as a code (--auto) holds >= 10x the readings of the band below it
+ISOLATED_WIDTH = 10        # that band: 10 pile widths (a width at least 0.2 % of the top reading)
+
+
+def isolated(top, low, hi):
+    """(is the pile [low, hi] of the histogram top {reading: count} isolated, why): a
+    no-return code stands alone above the ranges the laser measures; a pile that merely
+    tops a continuum of readings (a room's far wall seen often) is not one."""
+    width = max(hi - low, 0.002 * hi)
+    pile = sum(c for v, c in top.items() if low <= v <= hi)
+    below = sum(c for v, c in top.items() if low - ISOLATED_WIDTH * width <= v < low)
+    why = (f"{pile} readings at {low:g}..{hi:g} m against {below} in the {ISOLATED_WIDTH * width:.3g} m below "
+           f"them (a code needs {ISOLATED_RATIO}x)")
+    return pile >= ISOLATED_RATIO * max(below, 1), why
+
+
 def pile_up(top, total):
     """top: {reading (m): count} of the readings below the no-return limit; total: all
     readings (returns and no returns). When the readings pile up at their top (a no-return

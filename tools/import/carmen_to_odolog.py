@@ -3,7 +3,7 @@
 buildings of ../shared/data/carmen) -> odolog v1.
 
 Usage:
-    carmen_to_odolog.py LOG[.gz] --out FILE [--max-scans N] [--fix-every N]
+    carmen_to_odolog.py LOG[.gz] --out FILE [--max-scans N] [--fix-every N] [--auto [--choices F.json]]
                         [--time stamps|order] [--missing-odometry refuse|flaser]
                         [--scans [--range-max M] [--range-sigma S] [--no-return M]]
 
@@ -87,6 +87,13 @@ Mapping (format: docs/odolog.md):
   --time order: the stamps are not used; the lines used are 0.1 s apart in file order (a
   declared step, not a measurement); the pairing is by order as said above.
   --max-scans N stops after the N-th scan.
+- --auto (what `odoerr calibrate` runs): an option among --time, --missing-odometry and
+  --no-return that is not given is chosen from the log instead of refusing it: --time
+  order when the stamps cannot place the odometry (no usable stamp, or a FLASER whose
+  odometry no stamp pairs), --missing-odometry flaser when scans have no raw odometry, and
+  --no-return at the pile-up of readings at their top. Each choice and its reason (the
+  refusal's message, the count) goes to stderr, to a `meta choice_*` line and, with
+  --choices F.json, to a JSON file {option: {value, chosen, reason}}.
 - meta lines: the source name and credit, the SHA-256 of the decompressed text, the
   message types of the log with their counts (which were read, which skipped: NEFF, SYNC,
   RLASER, RAWLASER*, ROBOTLASER*, TRUEPOS, ... are counted, never silently dropped), the
@@ -105,13 +112,14 @@ different beam counts, and beam directions that no rule or PARAM gives.
 """
 
 import hashlib
+import json
 import math
 import os
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from import_common import InputError, Parser, read_bytes, run, write_atomic  # noqa: E402
-from carmen_laser import LASER_PARAMS, laser_setup, pile_up  # noqa: E402  (shared with the grid)
+from carmen_laser import LASER_PARAMS, isolated, laser_setup, pile_up  # noqa: E402  (shared with the grid)
 from carmen_log import READ_TYPES, read_log  # noqa: E402  (the log's lines)
 
 WHEEL_RADIUS_M = 0.0825
@@ -189,6 +197,7 @@ class Converter:
         self.no_return_opt = no_return
         self.order = time_mode == "order"
         self.missing = missing
+        self.choice_meta = []       # meta lines of carmen_to_odolog.convert's --auto choices
         self.laser = None           # (start, step, range_max, mount) with --scans
         self.laser_meta = []
         self.no_return = None
@@ -237,7 +246,7 @@ class Converter:
         v, src = line.stamp()
         if v is None and required:
             raise InputError(f"{line.where}: {line.kind}: no usable time stamp: {src}; --time order writes a "
-                             f"synthetic time in file order instead")
+                             f"synthetic time in file order instead", fix=("time", "order"))
         return v
 
     def clock(self, line):
@@ -444,11 +453,12 @@ class Converter:
                 o, st = last_raw
                 raise InputError(f"{fl.where}: no ODOM line carries the FLASER's time stamp {fl.ts_text}: the "
                                  f"last one before it (line {o.no}) is stamped {o.ts_text}{after}; the odometry "
-                                 f"at the scan's time is not in the file")
+                                 f"at the scan's time is not in the file", fix=("time", "order"))
             if self.missing != "flaser":
                 raise InputError(f"{fl.where}: the FLASER has no odometry: no raw ODOM line since {since}"
                                  f"{after}, and its own odom fields repeat the corrected pose; "
-                                 f"--missing-odometry flaser takes them as the odometry")
+                                 f"--missing-odometry flaser takes them as the odometry",
+                                 fix=("missing", "flaser"))
             if not anchored:
                 raise InputError(f"{fl.where}: the FLASER has no odometry since the previous scan and the "
                                  f"odometry frame is not anchored at a corrected pose: its odom fields "
@@ -549,7 +559,7 @@ class Converter:
                 elif started and n_raw > 0 and last_raw[1] > st:
                     raise InputError(f"{o.where}: the FLASER (stamped {o.ts_text}) comes after odometry stamped "
                                      f"later ({last_raw[0].ts_text}, line {last_raw[0].no}) and no ODOM line "
-                                     f"carries its stamp: its odometry cannot be placed")
+                                     f"carries its stamp: its odometry cannot be placed", fix=("time", "order"))
                 else:
                     pending = o
         else:
@@ -645,6 +655,8 @@ class Converter:
                 w("meta " + m)
             if self.pile_up:
                 w("meta " + self.pile_up)
+        for m in self.choice_meta:
+            w(m)
         w("drive diff")
         w(f"param wheel_radius_m {WHEEL_RADIUS_M:g}")
         w(f"param ticks_per_rev {TICKS_PER_REV}")
@@ -657,6 +669,47 @@ class Converter:
         return "\n".join(h + self.body) + "\n"
 
 
+def convert(a, lines, params, counts, declared):
+    """Runs the conversion with the options as given; with --auto, an option not given is
+    chosen from the log: --time order when the log's stamps cannot place its odometry (the
+    refusal's message is the reason), --missing-odometry flaser when scans have no raw
+    odometry (their count is the reason), --no-return at the pile-up of readings at their
+    top (carmen_laser.pile_up). Returns the converter and {option: {value, chosen, reason}}."""
+    opt = {"time": a.time or "stamps", "missing_odometry": a.missing_odometry or "refuse",
+           "no_return": a.no_return}
+    given = {"time": a.time is not None, "missing_odometry": a.missing_odometry is not None,
+             "no_return": a.no_return is not None}
+    why = {k: ("given" if given[k] else "the default") for k in opt}
+    chosen = {k: False for k in opt}
+    while True:
+        conv = Converter(a.max_scans, a.fix_every, a.scans, a.range_max, a.range_sigma, opt["no_return"],
+                         opt["time"], opt["missing_odometry"])
+        try:
+            conv.run(lines, params, counts, declared, a.log)
+        except InputError as e:
+            key = {"time": "time", "missing": "missing_odometry"}.get(e.fix[0]) if e.fix else None
+            if not a.auto or key is None or given[key] or chosen[key]:
+                raise
+            opt[key], chosen[key], why[key] = e.fix[1], True, f"the log refuses the default: {e}"
+            continue
+        if a.auto and not given["no_return"] and not chosen["no_return"] and conv.pile_up and a.scans:
+            low = float(conv.pile_up.split("--no-return ")[1].split()[0])
+            alone, how = isolated(conv.top, low, max(conv.top))
+            if alone:
+                opt["no_return"], chosen["no_return"] = low, True
+                why["no_return"] = conv.pile_up.split(" ", 1)[1].split(": a no-return")[0] + "; " + how
+                continue
+            why["no_return"] += f" (a pile-up at the top is not taken as a code: {how})"
+        break
+    if chosen["missing_odometry"]:
+        why["missing_odometry"] += f" ({conv.fills} of {conv.scans} scan intervals take the FLASER's pose as their odometry)"
+    res = {k: {"value": opt[k], "chosen": chosen[k], "reason": why[k]} for k in opt}
+    for k, c in res.items():
+        if c["chosen"]:
+            conv.choice_meta.append(f"meta choice_{k} {c['value']} {c['reason']}")
+    return conv, res
+
+
 def main(argv=None):
     ap = Parser(prog="carmen_to_odolog.py",
                 description="Convert a SLAM-corrected CARMEN log (FLASER + ODOM) to odolog v1.")
@@ -666,10 +719,15 @@ def main(argv=None):
                     help="stop after the N-th processed scan (default: all)")
     ap.add_argument("--fix-every", type=int, default=0, metavar="N",
                     help="a pose fix at every N-th scan (default 0: none)")
-    ap.add_argument("--time", choices=("stamps", "order"), default="stamps",
+    ap.add_argument("--auto", action="store_true",
+                    help="choose --time, --missing-odometry and --no-return from the log where they are not "
+                         "given (each choice and its reason: stderr, meta lines, --choices)")
+    ap.add_argument("--choices", metavar="FILE.json", default=None,
+                    help="write the value of --time, --missing-odometry and --no-return and why (with --auto)")
+    ap.add_argument("--time", choices=("stamps", "order"), default=None,
                     help="stamps (default): the log's time stamps; order: 0.1 s per line used, in file "
                          "order, for logs whose stamps are 0 or too coarse")
-    ap.add_argument("--missing-odometry", choices=("refuse", "flaser"), default="refuse",
+    ap.add_argument("--missing-odometry", choices=("refuse", "flaser"), default=None,
                     help="a scan with no raw odometry since the previous one: refuse (default), or take "
                          "the FLASER's own odom fields (in a corrected log, the corrected pose)")
     ap.add_argument("--scans", action="store_true",
@@ -692,14 +750,17 @@ def main(argv=None):
     try:
         data, digest = read_text(a.log)
         lines, params, counts, declared = read_log(data, a.log)
-        conv = Converter(a.max_scans, a.fix_every, a.scans, a.range_max, a.range_sigma, a.no_return,
-                         a.time, a.missing_odometry)
-        conv.run(lines, params, counts, declared, a.log)
+        conv, choices = convert(a, lines, params, counts, declared)
         write_atomic(a.out, conv.text(digest, a.max_scans, source_name(a.log)))
+        if a.choices:
+            write_atomic(a.choices, json.dumps(choices, indent=1) + "\n")
     except InputError as e:
         sys.stderr.write(f"error: {e}\n")
         return 2
-    if conv.pile_up:
+    for k, c in choices.items():
+        if c["chosen"]:
+            sys.stderr.write(f"chose --{k.replace('_', '-')} {c['value']:}: {c['reason']}\n")
+    if conv.pile_up and not choices["no_return"]["chosen"]:
         sys.stderr.write(f"note: {conv.pile_up.split(' ', 1)[1]}\n")
     sys.stderr.write(f"{a.out}: {conv.scans} scans, {conv.substeps} odometry sub-steps, "
                      f"{conv.fixes} pose fixes, {conv.t_end - float(conv.body[0].split()[1]):.1f} s, "

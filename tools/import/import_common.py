@@ -44,7 +44,13 @@ def skip_message(what, rel):
 
 
 class InputError(Exception):
-    """A malformed input; the message already names FILE:LINE."""
+    """A malformed input; the message already names FILE:LINE. `fix`, when set, is the
+    (option, value) that reads such a log instead of refusing it (carmen_to_odolog.py
+    --auto takes it and says so)."""
+
+    def __init__(self, message, fix=None):
+        super().__init__(message)
+        self.fix = fix
 
 
 def parse_number(tok, where, what):

@@ -19,7 +19,7 @@ void registerImportCommands(CLI::App& app, cli::Commands& cmds) {
   };
   static const Importer kImporters[] = {
       {"optiodom", "optiodom_to_odolog.py", "an OptiOdom run CSV (wheel ticks + motion capture): RUN.csv --out LOG [--fix-period S ...]"},
-      {"carmen", "carmen_to_odolog.py", "the Intel Research Lab CARMEN log: LOG --out FILE [--max-scans N] [--fix-every N]"},
+      {"carmen", "carmen_to_odolog.py", "a SLAM-corrected CARMEN log (five buildings read): LOG --out FILE [--scans] [--auto] [--time ...] [--max-scans N]"},
   };
   for (const Importer& im : kImporters) {
     CLI::App* sub = imp->add_subcommand(im.name, im.help);
