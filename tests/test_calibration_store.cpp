@@ -14,22 +14,10 @@
 #include "odoerr/drivers/calibration_store.hpp"
 #include "odoerr/hal/fake_param_store.hpp"
 
-// Counting global allocator, armed around the code under test only. The deletes are kept
-// out of line so GCC does not pair the inlined free() with operator new
-// (-Wmismatched-new-delete false positive).
-namespace {
-bool g_heap_armed = false;
-long g_heap_allocs = 0;
-}  // namespace
-void* operator new(std::size_t n) {
-  if (g_heap_armed) ++g_heap_allocs;
-  if (void* p = std::malloc(n == 0 ? 1 : n)) return p;
-  throw std::bad_alloc();
-}
-__attribute__((noinline)) void operator delete(void* p) noexcept { std::free(p); }
-__attribute__((noinline)) void operator delete(void* p, std::size_t) noexcept {
-  std::free(p);
-}
+#include "heap_counter.hpp"  // the counting operator new, armed around the code under test
+
+using odoerr::test::g_heap_allocs;
+using odoerr::test::g_heap_armed;
 
 using odoerr::drivers::Calibration;
 using odoerr::drivers::CalibrationStore;
@@ -601,7 +589,7 @@ TEST(CalibrationStore, LoadAndSaveDoNotAllocate) {
   void* probe = ::operator new(sizeof(int));  // a direct call: not elided
   g_heap_armed = false;
   ::operator delete(probe);
-  ASSERT_EQ(g_heap_allocs, 1);
+  ASSERT_EQ(g_heap_allocs.load(), 1);
   g_heap_allocs = 0;
   g_heap_armed = true;
   const LoadResult r0 = s.load(&out);
@@ -613,7 +601,7 @@ TEST(CalibrationStore, LoadAndSaveDoNotAllocate) {
   EXPECT_EQ(s1, Status::kOk);
   EXPECT_EQ(s2, Status::kOk);
   EXPECT_EQ(r1, LoadResult::kRestored);
-  EXPECT_EQ(g_heap_allocs, 0);
+  EXPECT_EQ(g_heap_allocs.load(), 0);
 }
 
 }  // namespace

@@ -19,23 +19,10 @@
 #include "odoerr/drivers/lms2xx.hpp"
 #include "odoerr/sim/lms2xx_writer.hpp"
 
-// --- a heap hook for the no-allocation test (shown to work first) -------------------------
-namespace {
-std::atomic<bool> g_armed{false};
-std::atomic<long> g_news{0};
-}  // namespace
+#include "heap_counter.hpp"  // the counting operator new, armed around the code under test
 
-// The replacements pair malloc/free on purpose (GCC cannot see they match).
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
-void* operator new(std::size_t n) {
-  if (g_armed.load(std::memory_order_relaxed)) g_news.fetch_add(1, std::memory_order_relaxed);
-  if (void* p = std::malloc(n == 0 ? 1 : n)) return p;
-  throw std::bad_alloc();
-}
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
-#pragma GCC diagnostic pop
+using odoerr::test::g_heap_allocs;
+using odoerr::test::g_heap_armed;
 
 using namespace odoerr::lms2xx_test;
 
@@ -384,24 +371,24 @@ TEST(Lms2xxParser, PollReadsTheSerialPort) {
 }
 
 TEST(Lms2xxParser, NoHeapWhileParsing) {
-  g_news = 0;
-  g_armed = true;
+  g_heap_allocs = 0;
+  g_heap_armed = true;
   int* probe = new int(3);  // the hook works
-  g_armed = false;
+  g_heap_armed = false;
   delete probe;
-  ASSERT_EQ(g_news.load(), 1);
+  ASSERT_EQ(g_heap_allocs.load(), 1);
 
   const Bytes f = cat({Bytes{0x02, 0x80, 0x00, 0x03, 0x55}, scanFrame(ranges(361, 4), true),
                        Bytes{0x02, 0x80, 0xFF, 0xFF}});
   static Lms2xxParser p;  // built outside the armed region
   static float out[Lms2xxParser::kMaxValues];
   Lms2xxScanInfo info;
-  g_news = 0;
-  g_armed = true;
+  g_heap_allocs = 0;
+  g_heap_armed = true;
   const bool got = p.feed(f.data(), f.size(), 1000000);
   const Status s = p.takeScan(out, Lms2xxParser::kMaxValues, &info);
-  g_armed = false;
-  EXPECT_EQ(g_news.load(), 0);
+  g_heap_armed = false;
+  EXPECT_EQ(g_heap_allocs.load(), 0);
   EXPECT_TRUE(got);
   EXPECT_EQ(s, Status::kOk);
   EXPECT_EQ(info.count, 361);

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <deque>
 #include <filesystem>
 #include <fstream>
 
@@ -11,6 +12,7 @@
 
 #include "odoerr/fw/paper_setup.hpp"
 #include "odoerr/sim/host_map.hpp"
+#include "odoerr/sim/relocalise.hpp"
 #include "odoerr/sim/stats.hpp"
 
 namespace odoerr::sim {
@@ -45,6 +47,14 @@ bool run(const Odolog& log, const ReplayOptions& opt, ReplaySummary* sum, std::s
   std::string map_err;
   if (!map.build(log.walls, opt.map_cell_m, &map_err)) {
     *error = log.path + ": " + map_err;
+    return false;
+  }
+  // Lost-track detection and relocalisation (relocalise.hpp): the map's likelihood field.
+  const TrackingRules rules;
+  LikelihoodField field;
+  const bool tracking = opt.relocalise && log.has_laser;
+  if (tracking && !field.build(log.walls, rules.field_cell_m, 4 * rules.sigma_m, &map_err)) {
+    *error = log.path + ": --relocalise: " + map_err;
     return false;
   }
   LaserConfig<S> lc;
@@ -87,7 +97,12 @@ bool run(const Odolog& log, const ReplayOptions& opt, ReplaySummary* sum, std::s
   std::ofstream tum(dir / "trajectory.tum");
   std::ofstream csv(dir / "estimates.csv");
   std::ofstream inn(dir / "innovations.csv");
-  if (!tum || !csv || !inn) {
+  std::ofstream trk;
+  if (tracking) {
+    trk.open(dir / "tracking.csv");
+    trk << "t,x,y,theta,fit,state\n";
+  }
+  if (!tum || !csv || !inn || (tracking && !trk)) {
     *error = "cannot write to '" + opt.out_dir + "': " + std::strerror(errno);
     return false;
   }
@@ -180,6 +195,127 @@ bool run(const Odolog& log, const ReplayOptions& opt, ReplaySummary* sum, std::s
     record(t);
   };
 
+  // Every scan's fit at the filter's pose; a poor fit that a local search beats by
+  // rules.gain (or a very poor one), rules.lost_after scans in a row, declares the track
+  // lost; a search of a
+  // widening window finds the robot again, and the estimator restarts from its state
+  // before the loss (parameters, K) at the found pose, so nothing of the lost stretch
+  // reaches the calibration (docs/real-data.md, "Lost and found").
+  // The estimator `from` (its parameters, K) restarted at the matched pose, its pose
+  // uncorrelated with the rest, a field cell and 0.02 rad its sigmas.
+  auto setPose = [&](Est& to, const ScanMatch& m, const Est& from) {
+    typename M::StateVec xs = from.akf().state();
+    typename M::StateMat ps = from.akf().covariance();
+    xs[0] = m.x;
+    xs[1] = m.y;
+    xs[2] = m.theta;
+    for (int i = 0; i < 3; ++i) {
+      ps.row(i).setZero();
+      ps.col(i).setZero();
+    }
+    ps(0, 0) = ps(1, 1) = S(rules.field_cell_m * rules.field_cell_m);
+    ps(2, 2) = S(0.02 * 0.02);
+    const typename Est::OfT::KVec k = from.of().estimate();
+    const typename Est::OfT::KMat pk = from.of().covariance();
+    if (&to != &from) to = from;
+    to.init(xs, ps, k, pk);
+  };
+  std::deque<Est> good;  // the estimator after the last good scans, oldest first
+  std::vector<double> fits;
+  int evidence = 0, failed = 0;
+  bool lost = false;
+  auto track = [&](const OdologScan& sc) {
+    const std::vector<ScanPoint> pts = scanPoints(log.laser, sc.ranges.data(), rules.max_points);
+    const auto& x = est.akf().state();
+    const double fit = scanFit(field, pts, x[0], x[1], x[2], rules.sigma_m);
+    const char* state = "tracked";
+    if (pts.size() < 10) {
+      state = "too_few_returns";
+    } else if (!lost) {
+      ++sum->scans_checked;
+      fits.push_back(fit);
+      bool bad = false;
+      if (fit < rules.poor_fit) {
+        ++sum->scans_poor;
+        const ScanMatch m = matchScan(field, pts, x[0], x[1], x[2], rules.check_m, rules.check_rad, rules.sigma_m);
+        if (m.fit >= fit + rules.gain && m.fit >= rules.accept_fit && m.fit - m.runner_up >= rules.distinct) {
+          // A clear better pose close by: fused as a pose fix (the filter weighs it against
+          // its own covariance; the parameters stay correlated as they were).
+          // A displacement past rules.reset_sigmas of the fix's sigmas is no correction but
+          // a filter gone astray: the pose is set there (the parameters kept).
+          const double d_m = std::hypot(m.x - x[0], m.y - x[1]), d_rad = std::fabs(wrapAngle(m.theta - x[2]));
+          if (d_m > rules.reset_sigmas * rules.fix_sigma_m || d_rad > rules.reset_sigmas * rules.fix_sigma_rad) {
+            setPose(est, m, est);
+          } else {
+            const PoseFix<S> pf{S(m.x), S(m.y), S(m.theta), S(rules.fix_sigma_m), S(rules.fix_sigma_m),
+                                S(rules.fix_sigma_rad)};
+            (void)est.measureStep(nullptr, typename Est::AkfT::NoObserver{}, &pf);
+          }
+          ++sum->pose_corrections;
+          state = "corrected";
+        } else {
+          bad = fit < rules.very_poor_fit;
+          state = bad ? "very_poor" : "poor";
+        }
+      }
+      evidence = bad ? evidence + 1 : 0;
+      if (!bad) {
+        good.push_back(est);
+        if (int(good.size()) > rules.snapshots) good.pop_front();
+      }
+      if (evidence >= rules.lost_after) {
+        lost = true;
+        failed = 0;
+        sum->episodes.push_back({sc.t, -1, fit, 0, 0, 0});
+        state = "lost";
+      }
+    }
+    // While lost, the search runs on every rules.widen_after-th scan (a wide window costs
+    // about a second), and on any scan that fits well at the filter's pose.
+    if (lost && failed % rules.widen_after != 0 && fit < rules.poor_fit) {
+      ++failed;
+      state = "lost";
+    } else if (lost) {
+      const int widen = failed / rules.widen_after;
+      const double wm = std::min(rules.max_window_m, rules.window_m * double(1 << std::min(widen, 8)));
+      const double wr = std::min(rules.max_window_rad, rules.window_rad * double(1 << std::min(widen, 8)));
+      const ScanMatch m = matchScan(field, pts, x[0], x[1], x[2], wm, wr, rules.sigma_m);
+      // Found: a pose that fits well and clearly better than the filter's, or the filter's
+      // own pose fitting well again.
+      // Found: a pose that fits well, clearly better than the filter's and than any other
+      // candidate of the window (not a corridor's twin), or the filter's own pose fitting
+      // well again.
+      // After a loss the bar is the log's own: rules.found_share of the median fit of the
+      // scans tracked so far (a building whose scans fit at 0.9 does not take 0.55).
+      double bar = rules.accept_fit;
+      if (!fits.empty()) {
+        std::vector<double> f = fits;
+        std::nth_element(f.begin(), f.begin() + std::ptrdiff_t(f.size() / 2), f.end());
+        bar = std::max(bar, rules.found_share * f[f.size() / 2]);
+      }
+      if (pts.size() >= 10 && m.fit >= bar && m.fit - m.runner_up >= rules.distinct &&
+          (m.fit >= fit + rules.gain || fit >= rules.poor_fit)) {
+        LostEpisode& ep = sum->episodes.back();
+        ep.t_recovered = sc.t;
+        ep.fit_recovered = m.fit;
+        ep.jump_m = std::hypot(m.x - x[0], m.y - x[1]);
+        ep.jump_rad = wrapAngle(m.theta - x[2]);
+        const Est restart = good.empty() ? est : good.front();
+        setPose(est, m, restart);
+        good.clear();
+        lost = false;
+        evidence = 0;
+        state = "recovered";
+      } else {
+        ++failed;
+        state = "lost";
+      }
+    }
+    const auto& xn = est.akf().state();
+    std::snprintf(buf, sizeof buf, "%.6f,%.4f,%.4f,%.5f,%.4f,%s\n", sc.t, xn[0], xn[1], xn[2], fit, state);
+    trk << buf;
+  };
+
   // Merge the time-ordered streams: enc (travel cycles), scans and pose fixes (fused at
   // their own stamps). At equal times: encoders first, then scans, then pose fixes.
   std::size_t ie = 0, is = 0, ip = 0;
@@ -202,6 +338,7 @@ bool run(const Odolog& log, const ReplayOptions& opt, ReplaySummary* sum, std::s
       for (std::size_t i = 0; i < ranges.size(); ++i) ranges[i] = s.ranges[i];
       cycleTo(s.t, ranges.data());
       ++sum->scans;
+      if (tracking) track(s);
     } else {
       const OdologPose& q = log.poses[ip++];
       if (q.t < t_f) {
@@ -213,6 +350,13 @@ bool run(const Odolog& log, const ReplayOptions& opt, ReplaySummary* sum, std::s
       ++sum->poses;
     }
   }
+  if (tracking && !fits.empty()) {
+    std::vector<double> f = fits;
+    std::nth_element(f.begin(), f.begin() + std::ptrdiff_t(f.size() / 2), f.end());
+    sum->fit_median = f[f.size() / 2];
+  }
+  sum->lost_at_end = lost;
+  if (lost && !good.empty()) est = good.front();  // the parameters from before the loss
   const auto& c = est.akf().counters();
   sum->beams_used = c.beams_used;
   sum->beams_gated = c.gated;
@@ -261,6 +405,29 @@ bool replayOdolog(const Odolog& log, const ReplayOptions& opt, ReplaySummary* su
   j["pose_rmse_at_truth_records_m"] = sum->pose_rmse_at_records_m >= 0 ? json(sum->pose_rmse_at_records_m) : json(nullptr);
   j["heading_rmse_at_truth_records_rad"] =
       sum->heading_rmse_at_records_rad >= 0 ? json(sum->heading_rmse_at_records_rad) : json(nullptr);
+  if (opt.relocalise) {
+    json tr;
+    tr["scans_checked"] = sum->scans_checked;
+    tr["scans_poor"] = sum->scans_poor;
+    tr["pose_corrections"] = sum->pose_corrections;
+    tr["fit_median"] = sum->fit_median >= 0 ? json(sum->fit_median) : json(nullptr);
+    std::size_t recovered = 0;
+    json eps = json::array();
+    for (const LostEpisode& e : sum->episodes) {
+      recovered += e.t_recovered >= 0;
+      eps.push_back({{"t_lost", e.t_lost},
+                     {"t_recovered", e.t_recovered >= 0 ? json(e.t_recovered) : json(nullptr)},
+                     {"fit_lost", e.fit_lost},
+                     {"fit_recovered", e.fit_recovered},
+                     {"jump_m", e.jump_m},
+                     {"jump_rad", e.jump_rad}});
+    }
+    tr["lost_episodes"] = sum->episodes.size();
+    tr["recovered"] = recovered;
+    tr["lost"] = sum->lost_at_end;
+    tr["episodes"] = eps;
+    j["tracking"] = tr;
+  }
   json params = json::object();
   for (const auto& p : sum->params) params[p.name] = {{"estimate", p.value}, {"sigma", p.sigma}};
   j["final"] = params;

@@ -81,6 +81,7 @@ bool parseFixSigma(const std::string& s, double* sxy, double* sth, std::string* 
 struct EvalArgs {
   std::vector<std::string> cal, test, with;
   std::string json, constants, fix_sigma, map;
+  double constants_k_w = -1;  ///< with --constants: their K_w, whose predicted growth is checked too
   cli::TuningArgs tuning;
 };
 
@@ -98,6 +99,7 @@ int runEvaluate(const EvalArgs& a) {
   sim::OdoConstants user;
   const bool has_user = !constants.empty();
   if (has_user && !parseConstants(constants, &user, &err)) return fail(err);
+  if (!has_user && a.constants_k_w > 0) return fail("--constants-k-w needs --constants (the constants it goes with)");
   // the pose fixes' sigmas: measured (the default), logs, auto or XY,THETA
   const bool fix_default = a.fix_sigma.empty();
   const std::string fix_mode = fix_default ? "measured" : a.fix_sigma;
@@ -236,6 +238,8 @@ int runEvaluate(const EvalArgs& a) {
   std::vector<std::vector<Pooled>> by_len(curve.size(), std::vector<Pooled>(sets.size()));
   std::vector<double> curve_pred(curve.size(), 0.0);
   std::vector<long> curve_n(curve.size(), 0);
+  double user_pred_sum = 0;  // --constants with --constants-k-w: their predicted 5 m growth
+  long user_pred_n = 0;
   for (const sim::Odolog& log : test_logs) {
     std::string kind;
     const std::vector<sim::Pose2> ref = sim::referenceOf(log, &kind);
@@ -263,6 +267,14 @@ int runEvaluate(const EvalArgs& a) {
       const auto n = sim::rpeSegments(ref, ref, 5.0).size();
       pred_sum += pred * pred * double(n);
       pred_n += static_cast<long>(n);
+    }
+    if (has_user && a.constants_k_w > 0) {
+      const double pu = sim::predictedRpeSigma(log, user, a.constants_k_w, ref, 5.0);
+      if (pu >= 0) {
+        const auto n = sim::rpeSegments(ref, ref, 5.0).size();
+        user_pred_sum += pu * pu * double(n);
+        user_pred_n += static_cast<long>(n);
+      }
     }
     for (std::size_t l = 0; l < curve.size(); ++l) {
       const double pl = sim::predictedRpeSigma(log, cal.c, cal.k_w, ref, curve[l]);
@@ -310,6 +322,16 @@ int runEvaluate(const EvalArgs& a) {
   }
   j["growth"]["trusted"] = growth_trusted;
   j["growth"]["reason"] = growth_reason;
+  if (has_user && a.constants_k_w > 0) {
+    const json u5 = j["rpe"]["5m"]["constants"];
+    json g = {{"K_w", a.constants_k_w},
+              {"predicted_sigma_5m_m", user_pred_n > 0 ? json(std::sqrt(user_pred_sum / double(user_pred_n)))
+                                                        : json(nullptr)},
+              {"observed_rmse_5m_m", u5["trans_rmse_m"]}};
+    if (g["predicted_sigma_5m_m"].is_number() && u5["trans_rmse_m"].is_number())
+      g["ratio_observed_to_predicted"] = u5["trans_rmse_m"].get<double>() / g["predicted_sigma_5m_m"].get<double>();
+    j["growth_constants"] = g;
+  }
   json curve_j = json::array();
   for (std::size_t l = 0; l < curve.size(); ++l) {
     json row = {{"length_m", curve[l]}};
@@ -391,6 +413,10 @@ void registerEvaluateCommands(CLI::App& app, cli::Commands& cmds) {
   ev->add_option("--constants", o->ev.constants,
                  "also evaluate these constants: delta_R,delta_L,delta_d (scales of the nominal, e.g. a published "
                  "calibration)");
+  ev->add_option("--constants-k-w", o->ev.constants_k_w,
+                 "with --constants: their K_w (m); growth_constants then compares the 5 m growth it predicts "
+                 "with the one observed")
+      ->check(CLI::PositiveNumber);
   ev->add_option("--fix-sigma", o->ev.fix_sigma,
                  "the calibration logs' pose-fix sigmas: measured (the default: each log's own fixes' noise, "
                  "measured in them), logs (as the logs declare), auto (the logs' own times the scale at which the "

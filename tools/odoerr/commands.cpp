@@ -8,6 +8,7 @@ void registerCommands(CLI::App& app, cli::Commands& cmds) {
   registerMapCommands(app, cmds);
   registerEvaluateCommands(app, cmds);
   registerImportCommands(app, cmds);
+  registerCalibrateCommand(app, cmds);
   registerBoundCommand(app, cmds);
 }
 

@@ -25,5 +25,7 @@ void registerEvaluateCommands(CLI::App& app, cli::Commands& cmds);
 void registerImportCommands(CLI::App& app, cli::Commands& cmds);
 /// bound (cmd_bound.cpp).
 void registerBoundCommand(CLI::App& app, cli::Commands& cmds);
+/// calibrate (cmd_calibrate.cpp; the steps are tools/calibrate/odoerr_calibrate.py).
+void registerCalibrateCommand(CLI::App& app, cli::Commands& cmds);
 
 }  // namespace odoerr

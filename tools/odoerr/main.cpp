@@ -167,6 +167,10 @@ int main(int argc, char** argv) {
   report->add_option("LOG", rp2_log, "odolog v1 file")->required();
   report->add_option("--out", rp2_out, "output directory (report.html and its data)")->required();
   report->add_option("--with", rp2_with, "effects to add and compare on held-out data")->delimiter(',');
+  std::string rp2_map;
+  report->add_option("--map", rp2_map, "the map to use instead of the log's walls (.odomap, or an odolog's walls)");
+  cli::TuningArgs rp2_tuning;
+  cli::addTuningOptions(report, &rp2_tuning);
 
   auto* replay = app.add_subcommand("replay", "run the estimator over an odolog drive");
   std::string rp_log;
@@ -184,6 +188,10 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0.0, 100.0));
   cli::TuningArgs rp_tuning;
   cli::addTuningOptions(replay, &rp_tuning);
+  bool rp_reloc = false;
+  replay->add_flag("--relocalise", rp_reloc,
+                   "check every scan's fit to the map, declare a lost track and find the robot again "
+                   "(tracking.csv, replay.json 'tracking'; docs/real-data.md, \"Lost and found\")");
 
   registerCommands(app, commands);
 
@@ -211,6 +219,7 @@ int main(int argc, char** argv) {
     ro.cycle_m = rp_cycle;
     ro.beams_used = rp_beams;
     ro.map_cell_m = rp_map_cell;
+    ro.relocalise = rp_reloc;
     if (!cli::applyK0(rp_tuning, log.drive, &ro.k0_w, &ro.k0_rho, &ro.k0_theta, &err)) {
       std::fprintf(stderr, "odoerr replay: %s\n", err.c_str());
       return 1;
@@ -228,6 +237,13 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, " (%.4f m at the %zu truth records)", sum.pose_rmse_at_records_m, sum.truth_records_scored);
     }
     std::fprintf(stderr, "; wrote %s/\n", rp_out.c_str());
+    if (rp_reloc) {
+      std::size_t rec = 0;
+      for (const auto& e : sum.episodes) rec += e.t_recovered >= 0;
+      std::fprintf(stderr, "odoerr replay: tracking: median fit %.2f over %zu scans; %zu lost, %zu recovered%s\n",
+                   sum.fit_median, sum.scans_checked, sum.episodes.size(), rec,
+                   sum.lost_at_end ? "; LOST at the end: the parameters are those from before the loss" : "");
+    }
     for (const auto& p : sum.params) std::printf("%-10s %.6g +- %.3g\n", p.name.c_str(), p.value, p.sigma);
     return 0;
   }
@@ -239,7 +255,7 @@ int main(int argc, char** argv) {
     DiagnoseOptions rp;
     rp.out_dir = rp2_out;
     rp.with = rp2_with;
-    const int rc = runDiagnose(rp2_log, (fs::path(rp2_out) / "diagnose.json").string(), rp, true);
+    const int rc = runDiagnose(rp2_log, (fs::path(rp2_out) / "diagnose.json").string(), rp, true, rp2_map, rp2_tuning);
     if (rc != 0) return rc;
     const std::string cmd = shellQuote(pythonInterpreter()) + " " + shellQuote(reportScript()) + " " + shellQuote(rp2_out);
     if (std::system(cmd.c_str()) != 0) {

@@ -31,13 +31,13 @@ double robustScale(std::vector<double> v) {
   return mad > 0 ? 1.4826 * mad : 1.0;
 }
 
+}  // namespace
+
 std::string fmt(const char* f, double a) {
   char b[160];
   std::snprintf(b, sizeof b, f, a);
   return b;
 }
-
-}  // namespace
 
 bool writeDiscoveryCsv(const std::string& dir, const Residuals& r, std::string* error) {
   auto one = [&](const char* name, const Design& d, const Selection& sel, const std::vector<Term>& terms, int every) {

@@ -29,6 +29,9 @@
 
 namespace odoerr::sim::diag {
 
+/// One number printed with a printf format (%g, %.3f, ...), for the terms in words.
+std::string fmt(const char* printf_format, double value);
+
 /// One candidate term of the library.
 struct Term {
   enum class Kind { kMotion, kReversal, kBeam, kTime } kind;  ///< kReversal, kTime: host-only terms

@@ -13,12 +13,6 @@ using effects::BeamFeature;
 using effects::MotionFeature;
 using effects::MotionTarget;
 
-std::string fmt(const char* f, double a) {
-  char b[160];
-  std::snprintf(b, sizeof b, f, a);
-  return b;
-}
-
 }  // namespace
 
 std::string Term::name() const {

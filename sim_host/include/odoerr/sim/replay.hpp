@@ -29,6 +29,18 @@ struct ReplayOptions {
   double map_cell_m = -1;
   /// Real-robot settings (the paper's by default).
   FilterTuning tuning;
+  /// Lost-track detection and relocalisation against the map at every scan
+  /// (relocalise.hpp; docs/real-data.md, "Lost and found"); writes tracking.csv.
+  bool relocalise = false;
+};
+
+/// A stretch where the track was lost: from the scan that declared it to the scan that
+/// recovered it (t_recovered < 0: never).
+struct LostEpisode {
+  double t_lost = 0, t_recovered = -1;
+  double fit_lost = 0;         ///< the scan's fit at the filter's pose when declared lost
+  double fit_recovered = 0;    ///< at the relocalised pose
+  double jump_m = 0, jump_rad = 0;  ///< relocalised pose minus the filter's
 };
 
 struct ReplayParam {
@@ -46,6 +58,13 @@ struct ReplaySummary {
   double pose_rmse_at_records_m = -1, heading_rmse_at_records_rad = -1;
   std::size_t truth_records_scored = 0;
   std::vector<ReplayParam> params;                 ///< final systematic then K
+  /// With ReplayOptions::relocalise: scans whose fit was checked, their median fit, the
+  /// episodes; lost_at_end when the last episode was never recovered (the final
+  /// parameters are then those before it).
+  std::size_t scans_checked = 0, scans_poor = 0, pose_corrections = 0;
+  double fit_median = -1;
+  std::vector<LostEpisode> episodes;
+  bool lost_at_end = false;
 };
 
 /// Replays `log`; false with *error naming the problem (unsupported map size, no init...).
