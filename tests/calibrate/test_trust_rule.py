@@ -33,6 +33,8 @@ def main():
 
     check(case(lambda r: None), True, "falls to x0.37", "the unbroken result")
     check(case(lambda r: r["tracking_first_half"].update(lost=True)), False, "lost", "a lost first half")
+    check(case(lambda r: r["tracking_first_half"].update(pose_rmse_at_truth_m=2.15)), False, "2.15 m RMS off",
+          "a first half 2.15 m off its reference poses")
     check(case(lambda r: None, raw=0.07), False, "7 % of the log's scan intervals", "7 % raw odometry")
     check(case(lambda r: r["rpe_5m_second_half"].update(calibrated=None)), False, "no 5 m segment",
           "no check segment")

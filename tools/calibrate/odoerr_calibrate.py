@@ -15,7 +15,7 @@ The steps, each an odoerr command or importer (printed as it runs, its output in
    (what a user's SLAM run would give); else the odolog's own walls.
 3. the settings, from the data (each value and its reason in calibration.json):
    a first pass of the estimator over the first half gives the laser-to-map residuals
-   (range sigma: 1.4826 x their median absolute deviation, within 0.03-0.30 m) and K_w
+   (range sigma: 1.4826 x their median absolute value, those within 1 m, within 0.03-0.30 m) and K_w
    (the start of K for the next passes, within 1e-5-1e-2 m); beams are fused most
    consistent first; the drive constants' prior is 5 %.
 4. tracking: the whole log against the map with lost-track detection and relocalisation
@@ -25,7 +25,8 @@ The steps, each an odoerr command or importer (printed as it runs, its output in
    nominal and the calibrated constants, the 5 m relative pose error (`odoerr evaluate`),
    and the error growth that the calibrated K_w predicts against the one observed.
 6. the trust rule: the calibration is trusted when the tracking of the first half was
-   never lost at its end, the checked half's 5 m RPE falls in translation or rotation and
+   never lost at its end nor more than 0.5 m RMS off the log's reference poses (where it
+   has them), the checked half's 5 m RPE falls in translation or rotation and
    rises in neither by more than 5 %, the predicted growth is within 1.5x of the observed,
    and most of the log's intervals carry raw odometry. The quarters' agreement is reported
    (a note when they are more than 3 sigma apart), not a clause: the filter's sigmas on
@@ -53,12 +54,14 @@ IMPORT_DIR = os.path.join(HERE, "..", "import")
 PY = sys.executable
 
 SIGMA_RANGE = (0.03, 0.30)    # m, the range sigma chosen from the residuals stays within
+RESIDUAL_BAND = 1.0          # m, the residuals the range sigma is measured on
 K0_RANGE = (1e-5, 1e-2)       # m, the start of K_w chosen from the first pass stays within
 PARAM_SIGMA = 0.05            # the drive constants' prior (relative)
 GROWTH_MAX = 1.5              # the predicted growth must be within this factor of the observed
 RPE_WORSE_MAX = 1.05          # the checked half's RPE may not rise by more than 5 %
 QUARTER_SIGMAS = 3.0          # the quarters' constants more than 3 sigma apart: a note
 RAW_ODOMETRY_MIN = 0.5        # at least half of the intervals must carry raw odometry
+TRACK_OFF_M = 0.5             # a track farther off the log's reference poses (RMS) is not used
 CARMEN_TYPE = re.compile(r"^[A-Z][A-Z0-9_]*$")
 
 
@@ -142,13 +145,14 @@ def constants_of(rep):
 
 def residual_sigma(innovations_csv):
     """1.4826 x the median absolute innovation of the beams the first pass predicted (used
-    or gated), and how many."""
+    or gated) within RESIDUAL_BAND of the map (a beam farther off hit something the map
+    lacks, or the track was off: it says nothing of the range noise), and how many."""
     vals = []
     with open(innovations_csv) as f:
         next(f)
         for line in f:
             p = line.split(",")
-            if len(p) > 5 and p[5] and p[2] in ("used", "gated"):
+            if len(p) > 5 and p[5] and p[2] in ("used", "gated") and abs(float(p[5])) < RESIDUAL_BAND:
                 vals.append(abs(float(p[5])))
     if len(vals) < 100:
         return None, len(vals)
@@ -191,6 +195,11 @@ def trust(result, quarters, raw_share):
     tr1 = result["tracking_first_half"]
     if tr1.get("lost"):
         return False, "the track of the first half was lost and not recovered: its calibration is not used"
+    off = tr1.get("pose_rmse_at_truth_m")
+    if off is not None and off > TRACK_OFF_M:
+        return False, (f"the track of the first half is {off:.2f} m RMS off the log's reference poses (more than "
+                       f"{TRACK_OFF_M} m): a relocalisation went wrong or the track drifted; its calibration is "
+                       f"not used")
     if raw_share is not None and raw_share < RAW_ODOMETRY_MIN:
         return False, (f"only {100 * raw_share:.0f} % of the log's scan intervals carry raw odometry (the rest "
                        f"repeat the corrected pose): the odometry cannot be calibrated from it")
@@ -326,8 +335,8 @@ def calibrate(a, r, fmt, settings):
                         f"(is the map the log's building?)")
     else:
         v = min(max(sig, SIGMA_RANGE[0]), SIGMA_RANGE[1])
-        settings["range_sigma_m"] = {"value": v, "why": f"1.4826 x the median absolute laser-to-map residual of "
-                                                        f"{n} beams in a first pass over the first half "
+        settings["range_sigma_m"] = {"value": v, "why": f"1.4826 x the median absolute laser-to-map residual "
+                                                        f"(within {RESIDUAL_BAND:g} m) of {n} beams in a first pass over the first half "
                                                         f"({sig:.3f} m), within {SIGMA_RANGE[0]}-{SIGMA_RANGE[1]} m"}
     k_probe = probe["final"]["K_w"]["estimate"]
     if a.k0:
@@ -410,7 +419,8 @@ def summary(res, where):
     t = res["tracking"]
     cal = res["calibration"]
     rmse = t["pose_rmse_at_truth_m"]
-    print(f"tracking: {'LOST (not recovered)' if t['lost'] else 'tracked'}; {t['lost_episodes']} lost, "
+    off = rmse is not None and rmse > TRACK_OFF_M
+    print(f"tracking: {'LOST (not recovered)' if t['lost'] else 'OFF the reference poses' if off else 'tracked'}; {t['lost_episodes']} lost, "
           f"{t['recovered']} recovered; median scan fit {t['fit_median']:.2f}" if t["fit_median"] is not None
           else "tracking: no scan was checked")
     if rmse is not None:
