@@ -200,7 +200,7 @@ bool run(const Odolog& log, const ReplayOptions& opt, ReplaySummary* sum, std::s
   // lost; a search of a
   // widening window finds the robot again, and the estimator restarts from its state
   // before the loss (parameters, K) at the found pose, so nothing of the lost stretch
-  // reaches the calibration (docs/real-data.md, "Lost and found").
+  // reaches the calibration (docs/calibrate.md, "Lost and found").
   // The estimator `from` (its parameters, K) restarted at the matched pose, its pose
   // uncorrelated with the rest, a field cell and 0.02 rad its sigmas.
   auto setPose = [&](Est& to, const ScanMatch& m, const Est& from) {

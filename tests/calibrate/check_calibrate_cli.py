@@ -3,13 +3,15 @@
 
   check_calibrate_cli.py ODOERR WORKDIR
 
-Always: a file that is neither an odolog nor a CARMEN log is refused (exit 2, FILE:LINE).
+Always: a file that is neither an odolog nor a CARMEN log is refused (exit 2, FILE:LINE); so
+are an odolog without reference poses and one without laser scans (exit 2, naming it).
 With the CARMEN data (import_common.data_dir(): $ODOERR_DATA, else ../shared/data; skipped
 with a message, exit 77, without it): the Intel lab's first 300 scans, no option but the
 crop: the contract's keys are there, the robot is tracked (not lost, pose RMS at the
 corrected poses <= 0.15 m), every setting says why, and the calibration is NOT trusted with
 the growth as its reason (on 150 scans K_w predicts the checked half's growth 3x off), which
-the printed summary says too.
+the printed summary says too. Orebro, the whole log: the importer's three choices made from
+the data, and a calibration not trusted because 93 % of its intervals have no raw odometry.
 """
 import json
 import os
@@ -36,6 +38,19 @@ def main():
     r = subprocess.run([odoerr, "calibrate", junk, "--out", os.path.join(work, "junk")], capture_output=True,
                        text=True)
     check(r.returncode == 2 and f"{junk}:3:" in r.stderr, f"not a log: exit {r.returncode}, {r.stderr.strip()}")
+    sim = os.path.join(work, "room.odolog")
+    r = subprocess.run([odoerr, "sim", "--drive", "diff", "--steps", "600", "--out", sim], capture_output=True,
+                       text=True)
+    check(r.returncode == 0, f"a simulated drive in the paper's room: exit {r.returncode}")
+    for drop, name, needle in (("truth", "no reference poses", "no reference poses"),
+                               ("scan", "no laser scans", "no laser scans")):
+        cut = os.path.join(work, f"no-{drop}.odolog")
+        with open(sim) as f, open(cut, "w") as g:
+            g.writelines(ln for ln in f if not ln.startswith(drop + " "))
+        r = subprocess.run([odoerr, "calibrate", cut, "--out", os.path.join(work, f"no-{drop}")],
+                           capture_output=True, text=True)
+        check(r.returncode == 2 and needle in r.stderr and cut in r.stderr,
+              f"{name}: exit {r.returncode}, {r.stderr.strip()[:160]}")
     d = import_common.find_data("carmen/intel-corrected.log.gz", sample=False)
     if not d:
         print(import_common.skip_message("odoerr calibrate on the Intel lab", "carmen/intel-corrected.log.gz"))
@@ -64,6 +79,23 @@ def main():
     check(not cal["trusted"] and "growth" in cal["reason"] and "NOT TRUSTED" in r.stdout and
           cal["use"] == cal["nominal"],
           f"not trusted, the nominal constants stand: {cal['reason']}")
+    # Orebro, the whole log: every import choice made from the data, and a calibration that
+    # must not be trusted (93 % of its scan intervals repeat the corrected pose).
+    log = os.path.join(d, "carmen/orebro-corrected.log.gz")
+    if os.path.isfile(log):
+        out = os.path.join(work, "orebro")
+        r = subprocess.run([odoerr, "calibrate", log, "--out", out, "--no-report"], capture_output=True, text=True)
+        check(r.returncode == 0, f"odoerr calibrate orebro: exit {r.returncode} {r.stderr.strip()[-300:]}")
+        if r.returncode == 0:
+            c = json.load(open(os.path.join(out, "calibration.json")))
+            imp = c["settings"]["import"]
+            chosen = sorted(k for k, v in imp.items() if v["chosen"])
+            said = ", ".join(f"{k} {imp[k]['value']}" for k in chosen)
+            check(chosen == ["missing_odometry", "no_return", "time"] and imp["time"]["value"] == "order" and
+                  abs(imp["no_return"]["value"] - 32.759) < 1e-6, f"orebro: the importer chose {said}")
+            check(not c["calibration"]["trusted"] and "raw odometry" in c["calibration"]["reason"] and
+                  c["raw_odometry_share"] < 0.1,
+                  f"orebro: not trusted: {c['calibration']['reason'][:90]}")
     print(f"\n{'all checks passed' if fails == 0 else f'{fails} check(s) failed'}")
     sys.exit(1 if fails else 0)
 

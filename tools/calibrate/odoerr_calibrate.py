@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """odoerr_calibrate.py: `odoerr calibrate LOG --out DIR [--map MAP]`, a real log to a
-calibration the user can trust (docs/real-data.md, "odoerr calibrate").
+calibration the user can trust (docs/calibrate.md).
 
 Usage (through `odoerr calibrate`, which adds --odoerr):
     odoerr calibrate LOG --out DIR [--map MAP] [--max-scans N] [--range-sigma S]
@@ -15,7 +15,8 @@ The steps, each an odoerr command or importer (printed as it runs, its output in
    (what a user's SLAM run would give); else the odolog's own walls.
 3. the settings, from the data (each value and its reason in calibration.json):
    a first pass of the estimator over the first half gives the laser-to-map residuals
-   (range sigma: 1.4826 x their median absolute value, those within 1 m, within 0.03-0.30 m) and K_w
+   (range sigma: 1.4826 x their median absolute value, those within 1 m, within
+   0.03-0.30 m) and K_w
    (the start of K for the next passes, within 1e-5-1e-2 m); beams are fused most
    consistent first; the drive constants' prior is 5 %.
 4. tracking: the whole log against the map with lost-track detection and relocalisation
@@ -36,7 +37,7 @@ The steps, each an odoerr command or importer (printed as it runs, its output in
 
 Writes DIR/calibration.json (the contract in docs/real-data.md) and prints a summary.
 Exit status 0 when a verdict was reached (trusted or not), 1 when a step failed, 2 on an
-input it cannot read.
+input it cannot read or work from (no laser scans; no reference poses to check against).
 """
 import argparse
 import gzip
@@ -169,6 +170,20 @@ def meta_value(log, key):
     return None
 
 
+class InputRefused(Exception):
+    """An input calibrate cannot work from: exit 2 with the message."""
+
+
+def record_counts(log):
+    """{record type: count} of an odolog."""
+    counts = {}
+    with open(log) as f:
+        for line in f:
+            k = line.split(" ", 1)[0].strip()
+            counts[k] = counts.get(k, 0) + 1
+    return counts
+
+
 def with_walls(src, mp, dst):
     """The odolog src with the map's segments as wall records (what evaluate and diagnose
     read a map from)."""
@@ -266,6 +281,9 @@ def main(argv=None):
     settings = {"format": {"value": fmt, "why": fmt_why}}
     try:
         result = calibrate(a, r, fmt, settings)
+    except InputRefused as e:
+        print(f"odoerr calibrate: {e}", file=sys.stderr)
+        return 2
     except StepError as e:
         print(f"odoerr calibrate: {e}", file=sys.stderr)
         json.dump({"error": str(e), "settings": settings, "steps": r.steps}, open(r.path("calibration.json"), "w"),
@@ -316,6 +334,14 @@ def calibrate(a, r, fmt, settings):
         mp = None
         settings["map"] = {"value": "the log's walls", "why": "no --map: the odolog's own wall records"}
     # 3. the halves, and the settings from a first pass over the first half
+    kinds = record_counts(log)
+    if kinds.get("scan", 0) == 0 or "laser" not in kinds:
+        raise InputRefused(f"{a.log}: no laser scans: calibrate tracks the robot against the map with its laser "
+                           f"(odolog 'laser' and 'scan' records)")
+    if kinds.get("truth", 0) < 2:
+        raise InputRefused(f"{a.log}: no reference poses ('truth' records, a CARMEN log's corrected poses): "
+                           f"calibrate checks the calibration on the half of the path it did not fit, against a "
+                           f"reference; a log without one cannot be checked (not supported yet)")
     r.run("split", [PY, os.path.join(IMPORT_DIR, "odolog_split.py"), log, "--first", r.path("first.odolog"),
                     "--second", r.path("second.odolog")])
     settings["order_beams"] = {"value": True, "why": "a map from a SLAM grid misses objects and people: the beams "

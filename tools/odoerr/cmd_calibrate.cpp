@@ -1,7 +1,7 @@
 // odoerr tool: `odoerr calibrate LOG --out DIR [--map MAP]`, one command from a real log to a
 // verdict. The steps (import, map, tracking, calibration, check, diagnosis) are odoerr's own
 // commands and importers, chained by tools/calibrate/odoerr_calibrate.py; every argument goes
-// to it as given, with this executable's path (docs/real-data.md, "odoerr calibrate").
+// to it as given, with this executable's path (docs/calibrate.md).
 #include <cstdio>
 #include <filesystem>
 #include <string>

@@ -191,7 +191,7 @@ int main(int argc, char** argv) {
   bool rp_reloc = false;
   replay->add_flag("--relocalise", rp_reloc,
                    "check every scan's fit to the map, declare a lost track and find the robot again "
-                   "(tracking.csv, replay.json 'tracking'; docs/real-data.md, \"Lost and found\")");
+                   "(tracking.csv, replay.json 'tracking'; docs/calibrate.md, \"Lost and found\")");
 
   registerCommands(app, commands);
 

@@ -2,7 +2,7 @@
 // firmware's cycle does not use it). The anchors are AMCL's likelihood field (a scan is
 // scored by how close its end points fall to the map's walls) and Cartographer's
 // correlative scan matcher (an exhaustive search of poses in a window, coarse to fine).
-// docs/real-data.md, "Lost and found", states the rules and their figures.
+// docs/calibrate.md, "Lost and found", states the rules and their figures.
 #pragma once
 
 #include <string>
@@ -54,7 +54,7 @@ struct ScanMatch {
   double runner_up = 0;
 };
 
-/// The rules of ReplayOptions::relocalise (docs/real-data.md, "Lost and found").
+/// The rules of ReplayOptions::relocalise (docs/calibrate.md, "Lost and found").
 struct TrackingRules {
   double field_cell_m = 0.05;  ///< the likelihood field's cell
   double sigma_m = 0.10;       ///< the fit's distance scale (a 5 cm map, beams 1 deg wide)

@@ -30,7 +30,7 @@ struct ReplayOptions {
   /// Real-robot settings (the paper's by default).
   FilterTuning tuning;
   /// Lost-track detection and relocalisation against the map at every scan
-  /// (relocalise.hpp; docs/real-data.md, "Lost and found"); writes tracking.csv.
+  /// (relocalise.hpp; docs/calibrate.md, "Lost and found"); writes tracking.csv.
   bool relocalise = false;
 };
 
