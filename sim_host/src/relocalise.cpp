@@ -150,6 +150,11 @@ struct Candidate {
 
 constexpr double kKeepFit = 0.2;  // a lattice pose fitting worse is never a candidate
 
+// Two poses are distinct candidates when 0.5 m or 0.3 rad apart (ScanMatch::runner_up).
+bool distinctPoses(const Candidate& a, const Candidate& b) {
+  return std::hypot(a.x - b.x, a.y - b.y) >= 0.5 || std::fabs(std::remainder(a.th - b.th, 2 * M_PI)) >= 0.3;
+}
+
 // Every pose of the lattice (x +- n_xy*step_xy, th +- n_th*step_th) scored; the best ones
 // (at most keep) appended to out.
 void lattice(const LikelihoodField& field, const std::vector<ScanPoint>& pts, const Candidate& c, int n_xy,
@@ -179,15 +184,8 @@ void lattice(const LikelihoodField& field, const std::vector<ScanPoint>& pts, co
   std::vector<Candidate> picked;
   for (const Candidate& cand : all) {
     if (picked.size() >= keep) break;
-    bool distinct = true;
-    for (const Candidate& p : picked) {
-      const double dth = std::fabs(std::remainder(cand.th - p.th, 2 * M_PI));
-      if (std::hypot(cand.x - p.x, cand.y - p.y) < 0.5 && dth < 0.3) {
-        distinct = false;
-        break;
-      }
-    }
-    if (distinct) picked.push_back(cand);
+    if (std::all_of(picked.begin(), picked.end(), [&](const Candidate& p) { return distinctPoses(cand, p); }))
+      picked.push_back(cand);
   }
   out->insert(out->end(), picked.begin(), picked.end());
 }
@@ -220,8 +218,7 @@ ScanMatch matchScan(const LikelihoodField& field, const std::vector<ScanPoint>& 
                                     [](const Candidate& a, const Candidate& b) { return a.fit < b.fit; });
   best = {top->x, top->y, top->th, top->fit, 0};
   for (const Candidate& c : refined) {
-    const double dth = std::fabs(std::remainder(c.th - top->th, 2 * M_PI));
-    if (std::hypot(c.x - top->x, c.y - top->y) >= 0.5 || dth >= 0.3) best.runner_up = std::max(best.runner_up, c.fit);
+    if (distinctPoses(c, *top)) best.runner_up = std::max(best.runner_up, c.fit);
   }
   return best;
 }

@@ -221,7 +221,13 @@ bool run(const Odolog& log, const ReplayOptions& opt, ReplaySummary* sum, std::s
     to.init(xs, ps, k, pk);
   };
   std::deque<Est> good;  // the estimator after the last good scans, oldest first
-  std::vector<double> fits;
+  std::vector<double> fits;  // the fit of every scan checked while tracked
+  auto medianFit = [&fits]() {
+    if (fits.empty()) return -1.0;
+    std::vector<double> f = fits;
+    std::nth_element(f.begin(), f.begin() + std::ptrdiff_t(f.size() / 2), f.end());
+    return f[f.size() / 2];
+  };
   int evidence = 0, failed = 0;
   bool lost = false;
   auto track = [&](const OdologScan& sc) {
@@ -287,12 +293,7 @@ bool run(const Odolog& log, const ReplayOptions& opt, ReplaySummary* sum, std::s
       // well again.
       // After a loss the bar is the log's own: rules.found_share of the median fit of the
       // scans tracked so far (a building whose scans fit at 0.9 does not take 0.55).
-      double bar = rules.accept_fit;
-      if (!fits.empty()) {
-        std::vector<double> f = fits;
-        std::nth_element(f.begin(), f.begin() + std::ptrdiff_t(f.size() / 2), f.end());
-        bar = std::max(bar, rules.found_share * f[f.size() / 2]);
-      }
+      const double bar = std::max(rules.accept_fit, rules.found_share * medianFit());
       if (pts.size() >= 10 && m.fit >= bar && m.fit - m.runner_up >= rules.distinct &&
           (m.fit >= fit + rules.gain || fit >= rules.poor_fit)) {
         LostEpisode& ep = sum->episodes.back();
@@ -350,11 +351,7 @@ bool run(const Odolog& log, const ReplayOptions& opt, ReplaySummary* sum, std::s
       ++sum->poses;
     }
   }
-  if (tracking && !fits.empty()) {
-    std::vector<double> f = fits;
-    std::nth_element(f.begin(), f.begin() + std::ptrdiff_t(f.size() / 2), f.end());
-    sum->fit_median = f[f.size() / 2];
-  }
+  if (tracking) sum->fit_median = medianFit();
   sum->lost_at_end = lost;
   if (lost && !good.empty()) est = good.front();  // the parameters from before the loss
   const auto& c = est.akf().counters();

@@ -53,6 +53,8 @@ import time
 HERE = os.path.dirname(os.path.abspath(__file__))
 IMPORT_DIR = os.path.join(HERE, "..", "import")
 PY = sys.executable
+sys.path.insert(0, IMPORT_DIR)
+import import_common  # noqa: E402  (the odolog helpers the importers share)
 
 SIGMA_RANGE = (0.03, 0.30)    # m, the range sigma chosen from the residuals stays within
 RESIDUAL_BAND = 1.0          # m, the residuals the range sigma is measured on
@@ -182,27 +184,6 @@ def record_counts(log):
             k = line.split(" ", 1)[0].strip()
             counts[k] = counts.get(k, 0) + 1
     return counts
-
-
-def with_walls(src, mp, dst):
-    """The odolog src with the map's segments as wall records (what evaluate and diagnose
-    read a map from)."""
-    walls = []
-    with open(mp) as m:
-        for line in m:
-            if line.startswith("segment "):
-                walls.append("wall " + " ".join(line.split()[1:5]) + "\n")
-            elif line.startswith("wall "):
-                walls.append(line)
-    with open(src) as f, open(dst, "w") as g:
-        done = False
-        for line in f:
-            if not done and line.startswith(("enc ", "scan ", "pose ", "truth ")):
-                g.writelines(walls)
-                done = True
-            if line.startswith("wall "):
-                continue
-            g.write(line)
 
 
 def trust(result, quarters, raw_share):
@@ -389,7 +370,7 @@ def calibrate(a, r, fmt, settings):
                     "disagreement_sigma": dis[worst], "worst": worst}
     walls = r.path("first_walls.odolog")
     if mp:
-        with_walls(r.path("first.odolog"), mp, walls)
+        import_common.with_map_walls(r.path("first.odolog"), mp, walls)
     else:
         walls = r.path("first.odolog")
     ev_json = r.path("evaluate.json")

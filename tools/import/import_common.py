@@ -128,3 +128,22 @@ def run(main):
         sys.exit(main())
     except KeyboardInterrupt:
         sys.exit(130)
+
+
+def with_map_walls(src, odomap, dst):
+    """Writes the odolog src to dst with the line map's segments (`odoerr map import`'s
+    .odomap) as its wall records, before the first data record, in place of any walls src
+    had: what evaluate and diagnose read a map from."""
+    walls = []
+    with open(odomap) as m:
+        for line in m:
+            if line.startswith(("segment ", "wall ")):
+                walls.append("wall " + " ".join(line.split()[1:5]) + "\n")
+    with open(src) as f, open(dst, "w") as g:
+        done = False
+        for line in f:
+            if not done and line.startswith(("enc ", "scan ", "pose ", "truth ")):
+                g.writelines(walls)
+                done = True
+            if not line.startswith("wall "):
+                g.write(line)

@@ -117,12 +117,7 @@ def rpe_second_half(odoerr, o, c):
     given the map's segments as wall records; that block is reported as evaluate gives it,
     under "calibrated" (docs/real-data.md says what it shows)."""
     withwalls = o("first_walls.odolog")
-    with open(o("first.odolog")) as f, open(withwalls, "w") as g, open(o("intel.odomap")) as m:
-        walls = ["wall " + " ".join(l.split()[1:5]) + "\n" for l in m if l.startswith("segment ")]
-        for line in f:
-            g.write(line)
-            if line.startswith("laser "):
-                g.writelines(walls)
+    import_common.with_map_walls(o("first.odolog"), o("intel.odomap"), withwalls)
     r = subprocess.run([odoerr, "evaluate", "--calibrate", withwalls, "--test", o("second.odolog"),
                         "--json", o("evaluate.json"), "--constants", ",".join(f"{v:.6f}" for v in c)],
                        capture_output=True, text=True)
