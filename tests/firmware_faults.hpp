@@ -197,7 +197,7 @@ inline FaultOutcome runFaults(const FaultPlan& plan) {
         }
       }
       for (std::size_t q = 0; nearest != nullptr && q < r.size() && q < nearest->size(); ++q) {
-        const double a = r[q], b = (*nearest)[q];
+        const double a = static_cast<double>(r[q]), b = static_cast<double>((*nearest)[q]);
         if (a == b || (std::isnan(a) && std::isnan(b))) continue;
         const double e = std::isnan(a) || std::isnan(b) ? 0.0 : std::abs(a - b);
         if (std::isnan(a)) {

@@ -104,9 +104,9 @@ FwResult<DriveT> runFirmware(std::uint64_t seed, const SerialFaults& faults, int
   res.ref_x.resize(n);
   res.ref_sigma.resize(n);
   for (int i = 0; i < n; ++i) {
-    res.x[i] = est.akf().state()[i];
+    res.x[i] = static_cast<double>(est.akf().state()[i]);
     res.sigma[i] = std::sqrt(double(est.akf().covariance()(i, i)));
-    res.ref_x[i] = ref.akf().state()[i];
+    res.ref_x[i] = static_cast<double>(ref.akf().state()[i]);
     res.ref_sigma[i] = std::sqrt(double(ref.akf().covariance()(i, i)));
   }
   const auto& truth = world.steps()[done > 0 ? done - 1 : 0].truth;

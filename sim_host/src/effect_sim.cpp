@@ -186,8 +186,12 @@ bool simulateEffectDrive(const EffectSimConfig& cfg, std::string* text, std::str
   out.clear();
   char buf[512];
   auto line = [&](const char* fmt, auto... a) {
-    std::snprintf(buf, sizeof buf, fmt, a...);
-    out += buf;
+    if constexpr (sizeof...(a) == 0) {
+      out += fmt;
+    } else {
+      std::snprintf(buf, sizeof buf, fmt, a...);
+      out += buf;
+    }
   };
   line("odolog 1\n");
   line("meta source odoerr-sim-excite seed=%llu\n", static_cast<unsigned long long>(cfg.seed));

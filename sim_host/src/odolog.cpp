@@ -8,6 +8,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <limits>
 #include <sstream>
 
 namespace odoerr::sim {
@@ -108,7 +109,7 @@ bool parseOdolog(const std::string& text, const std::string& name, Odolog* out, 
   std::string raw;
   bool seen_version = false;
   bool in_data = false;
-  double last_t = -INFINITY;
+  double last_t = -std::numeric_limits<double>::infinity();
   int drive_line = 0;
   while (std::getline(in, raw)) {
     ++p.line;

@@ -14,7 +14,8 @@ bool LikelihoodField::build(const std::vector<OdologWall>& walls, double cell_m,
     *error = "the map has no wall to match a scan against";
     return false;
   }
-  double lo_x = INFINITY, lo_y = INFINITY, hi_x = -INFINITY, hi_y = -INFINITY;
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  double lo_x = kInf, lo_y = kInf, hi_x = -kInf, hi_y = -kInf;
   for (const OdologWall& w : walls) {
     if (!std::isfinite(w.x1) || !std::isfinite(w.y1) || !std::isfinite(w.x2) || !std::isfinite(w.y2)) {
       *error = "a wall of the map is not finite";

@@ -7,6 +7,7 @@
 #include <deque>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 
 #include <nlohmann/json.hpp>
 
@@ -320,7 +321,7 @@ bool run(const Odolog& log, const ReplayOptions& opt, ReplaySummary* sum, std::s
   // Merge the time-ordered streams: enc (travel cycles), scans and pose fixes (fused at
   // their own stamps). At equal times: encoders first, then scans, then pose fixes.
   std::size_t ie = 0, is = 0, ip = 0;
-  const double inf = INFINITY;
+  const double inf = std::numeric_limits<double>::infinity();
   std::vector<S> ranges(log.has_laser ? log.laser.beams : 0);
   while (ie < log.enc.size() || is < log.scans.size() || ip < log.poses.size()) {
     const double te = ie < log.enc.size() ? log.enc[ie].t : inf;

@@ -149,7 +149,6 @@ int writeHalTape(const std::string& out, std::uint64_t seed, int steps, double c
   typename HalSimDrive<D>::Options opt;
   opt.faults.corrupt_probability = corrupt;
   HalSimDrive<D> world(cfg, seed, opt);
-  FilterSetup setup;
   fw::HalTapeHeader h;
   h.drive = PaperSim<D>::kSync ? 0 : 1;
   h.counter_bits = opt.counter_bits;

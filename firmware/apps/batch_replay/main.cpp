@@ -32,7 +32,8 @@ int main() {
   // The batch filter has no OF: it gets the true K (the tape starts the OF 100x below).
   const DiffDrive<float>::NonSysVec k_true = k0 * 100.0f;
   fw::FilterSetup setup;
-  auto est = fw::makePaperEstimator<float, DiffDrive>(setup, Pose<double>{h.x0, h.y0, h.theta0}, k0);
+  const Pose<double> start{static_cast<double>(h.x0), static_cast<double>(h.y0), static_cast<double>(h.theta0)};
+  auto est = fw::makePaperEstimator<float, DiffDrive>(setup, start, k0);
   auto& g_batch = *new (g_storage) fw::BatchEkf<M>();
   g_batch.init(est.akf().state(), est.akf().covariance());
   std::uint8_t buf[4 * (2 + 64)];

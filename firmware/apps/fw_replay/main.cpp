@@ -86,7 +86,8 @@ int run(int in, int out, const fw::HalTapeHeader& h) {
   typename DriveT<float>::NonSysVec k0;
   for (int i = 0; i < k0.size(); ++i) k0[i] = h.k0[i];
   fw::FilterSetup setup;
-  Est& est = est_mem.make(fw::makePaperEstimator<float, DriveT>(setup, Pose<double>{h.x0, h.y0, h.theta0}, k0));
+  const Pose<double> start{static_cast<double>(h.x0), static_cast<double>(h.y0), static_cast<double>(h.theta0)};
+  Est& est = est_mem.make(fw::makePaperEstimator<float, DriveT>(setup, start, k0));
   TapeDevices::Clock clock;
   TapeDevices::Counter a(static_cast<std::uint8_t>(h.counter_bits));
   TapeDevices::Counter b(static_cast<std::uint8_t>(h.counter_bits));

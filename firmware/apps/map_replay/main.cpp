@@ -32,8 +32,8 @@ int main(int argc, char** argv) {
   DiffDrive<float>::NonSysVec k0;
   k0[0] = h.k0[0];
   const fw::FilterSetup setup;
-  Est est = fw::makeEstimatorOn<Est, DiffDrive>(setup, MapView<float>(kOdoerrMap), laser,
-                                                       Pose<double>{h.x0, h.y0, h.theta0}, k0);
+  const Pose<double> start{static_cast<double>(h.x0), static_cast<double>(h.y0), static_cast<double>(h.theta0)};
+  Est est = fw::makeEstimatorOn<Est, DiffDrive>(setup, MapView<float>(kOdoerrMap), laser, start, k0);
   auto rd = [&](void* b, std::size_t n) { return t.read(b, n); };
   auto wr = [&](const void* b, std::size_t n) { return t.write(b, n); };
   const int rc = fw::replayThrough<kMaxTapeBeams>(est, h, rd, wr, &io::stackHighWater);

@@ -4,7 +4,9 @@
 
 namespace odoerr::sim::diag {
 
+namespace {
 using json = nlohmann::ordered_json;
+}  // namespace
 
 const char* adviceFor(const std::string& name) {
   if (name == "delta_d" || name == "delta_R" || name == "delta_L")
