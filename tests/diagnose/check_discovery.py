@@ -29,7 +29,9 @@ effect NOT in the catalogue's form. For every case and seed the script runs
 
 Clean drives (no effect, --clean-seeds, default 21-30) are one case: a drive is FLAGGED
 when an effect is named, `unexplained.significant` is true, `change_points` is not empty,
-or (with --auto) `auto.final_with` is not empty. The rule: at most ceil(5 % of the seeds)
+`map_misfit.regions` is not empty (a region where the map is wrong, on a drive whose map
+is the building: check_map.py's clean rule, checked here on the same drives), or (with
+--auto) `auto.final_with` is not empty. The rule: at most ceil(5 % of the seeds)
 drives flagged, i.e. 1 of 10 (1 of 20). With 10 seeds a literal ">= 95 %" would allow no
 false alarm at all, which a detector with a true 5 % false-alarm rate fails 40 % of the
 time; allowing 1 of 10 fails it 9 % of the time at 5 %, and 0.4 % of the time at 1 %.
@@ -198,6 +200,12 @@ def check_case(args, name, seed):
     # 3. the abrupt change is found near its time
     t_c = case.get("change_at")
     if t_c is not None:
+        try:
+            regions = need(j, "map_misfit", "regions")
+            if regions:
+                why.append("%d map region(s)" % len(regions))
+        except Missing as e:
+            missing.append(str(e))
         try:
             cps = need(j, "change_points")
             hit = [c for c in cps if isinstance(c, dict) and (

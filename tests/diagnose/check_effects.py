@@ -1,8 +1,9 @@
 #!/usr/bin/env python3
 """Hidden-effect tests of `odoerr diagnose` over seeds (issue: data with hidden effects).
 
-  check_effects.py ODOERR WORKDIR effects [--seeds 1,2,3] [--only NAME,...]
-      every catalogue effect injected by `odoerr sim` at a detectable size; for each seed:
+  check_effects.py ODOERR WORKDIR effects [--seeds 1,2,3] [--strong-seeds N] [--only NAME,...]
+      every catalogue effect injected by `odoerr sim` at a detectable size; for each seed
+      (the first N seeds only for the effects in STRONG, with --strong-seeds N):
       the effect ranks first or inside the reported ambiguous group of the first, and is
       named (significant); its informed estimates are within 3 sigma of the truth; adding
       it (--with) lowers the cross-validated held-out error its physics changes: a motion
@@ -39,6 +40,13 @@ CASES = {
     "scan_latency": [0.02],
     "wall_offset": [0, 0.04],
 }
+# Effects whose held-out check has always passed by a wide margin at these sizes (paired
+# z of the error their physics changes beyond -4 on every seed, up to -45 for range_scale);
+# a further seed repeats checks that cannot plausibly turn. The others (backlash,
+# wheel_backlash, speed_scale, wheel_eccentricity, radius_drift, turn_noise, scan_latency:
+# z between -0.6 and -4) are where a seed decides, and run on every seed.
+STRONG = {"turn_slip", "rotation_slip", "region_scale", "range_bias", "range_scale",
+          "laser_mount_xy", "laser_mount_yaw", "wall_offset"}
 PYSIM_CASES = ["turn_slip", "backlash", "range_bias", "scan_latency", "wheel_eccentricity"]
 
 
@@ -125,6 +133,8 @@ def main():
     ap.add_argument("mode", choices=["effects", "clean", "pysim"])
     ap.add_argument("--seeds", default=None)
     ap.add_argument("--only", default=None)
+    ap.add_argument("--strong-seeds", type=int, default=None,
+                    help="effects mode: the effects in STRONG run on the first N seeds only")
     ap.add_argument("--drive", default="diff")
     ap.add_argument("--pysim", default=None)
     ap.add_argument("--python", default="/usr/bin/python3")
@@ -156,7 +166,8 @@ def main():
         seeds = [int(s) for s in (args.seeds or "1,2,3").split(",")]
         for name in names:
             vals = CASES[name]
-            for s in seeds:
+            strong = args.mode == "effects" and args.strong_seeds is not None and name in STRONG
+            for s in (seeds[:args.strong_seeds] if strong else seeds):
                 log = os.path.join(args.workdir, "%s_%s_%d.log" % (args.mode, name, s))
                 spec = "%s=%s" % (name, ",".join(repr(v) for v in vals))
                 if args.mode == "effects":
