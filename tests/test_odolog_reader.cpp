@@ -75,11 +75,108 @@ TEST(OdologReader, EveryRuleIsEnforcedWithItsLine) {
        "t.odolog:2: drive diff needs 'param wheel_radius_m'"},
       {"odolog 1\ndrive sync\nscan 0 1\n", "t.odolog:3: 'scan' before any 'laser' record"},
       {"", "t.odolog:0: empty file: the first record must be 'odolog 1'"},
+      {"odolog 1\ndrive diff\nparam wheel_radius_m 0.05\nparam ticks_per_rev 4096\nparam wheelbase_m 0.5\n"
+       "param max_speed_mps -1\n",
+       "t.odolog:2: param max_speed_mps must be positive"},
   };
   for (const Case& c : cases) {
     const std::string err = parseError(c.text);
     EXPECT_EQ(err.rfind(c.expect, 0), 0u) << "got: " << err << "\nexpected: " << c.expect;
   }
+}
+
+// The plausibility rule (docs/odolog.md, "Plausibility"): the header's wheel makes 13,038
+// ticks per metre; the records are 10 ms apart, so the interval is floored at 20 ms and at
+// the default 5 m/s an increment may be 1,304 + 16 ticks.
+TEST(OdologReader, AnImpossibleIncrementIsRejectedAndTheRestShifted) {
+  Odolog log;
+  std::string err;
+  const std::string text = std::string(kHeader) +
+                           "enc 0.00 0 0\nenc 0.01 100 100\nenc 0.02 1000100 200\nenc 0.03 1000200 300\n";
+  ASSERT_TRUE(parseOdolog(text, "j.odolog", &log, &err)) << err;
+  ASSERT_EQ(log.enc_rejected.size(), 1u);
+  const OdologRejection& r = log.enc_rejected[0];
+  EXPECT_EQ(r.line, 12);
+  EXPECT_EQ(r.channel, 'A');
+  EXPECT_DOUBLE_EQ(r.t, 0.02);
+  EXPECT_DOUBLE_EQ(r.ticks, 1000000.0);
+  EXPECT_NEAR(r.limit, 5.0 * 4096 / (2 * kPi<double> * 0.05) * 0.02 + 16, 1e-6);
+  EXPECT_DOUBLE_EQ(log.enc_limits.dt_floor_s, 0.02);
+  // channel A: the jump contributes nothing, the next increment (100) counts; B untouched
+  EXPECT_EQ(log.enc[2].a, 100);
+  EXPECT_EQ(log.enc[3].a, 200);
+  EXPECT_EQ(log.enc[3].b, 300);
+  EXPECT_EQ(log.enc_limits.max_speed_mps, kDefaultMaxSpeedMps);
+  EXPECT_FALSE(log.enc_limits.speed_given);
+  const std::string line = rejectionSummary(log);
+  EXPECT_NE(line.find("1 encoder increment rejected"), std::string::npos) << line;
+  EXPECT_NE(line.find("j.odolog:12"), std::string::npos) << line;
+  // a log without a glitch: nothing rejected, nothing said
+  ASSERT_TRUE(parseOdolog(std::string(kHeader) + "enc 0.00 0 0\nenc 0.01 600 -600\n", "ok.odolog", &log, &err));
+  EXPECT_TRUE(log.enc_rejected.empty());
+  EXPECT_EQ(rejectionSummary(log), "");
+}
+
+TEST(OdologReader, IncrementsAtTheIntegerLimitsAreRejectedWithoutOverflow) {
+  Odolog log;
+  std::string err;
+  const std::string text = std::string(kHeader) +
+                           "enc 0.00 0 0\n"
+                           "enc 0.01 9223372036854775807 -9223372036854775808\n"
+                           "enc 0.02 9223372036854775800 -9223372036854775800\n"
+                           "enc 0.03 -9223372036854775808 9223372036854775807\n";
+  ASSERT_TRUE(parseOdolog(text, "lim.odolog", &log, &err)) << err;
+  ASSERT_EQ(log.enc_rejected.size(), 4u);  // both channels at lines 11 and 13
+  EXPECT_EQ(log.enc_rejected[0].line, 11);
+  EXPECT_EQ(log.enc_rejected[2].line, 13);
+  // between lines 11 and 12 the counts moved -7 and +8: plausible, kept
+  EXPECT_EQ(log.enc[2].a, -7);
+  EXPECT_EQ(log.enc[2].b, 8);
+  EXPECT_EQ(log.enc[3].a, -7);
+  EXPECT_EQ(log.enc[3].b, 8);
+}
+
+TEST(OdologReader, TheHeaderSetsTheLimits) {
+  Odolog log;
+  std::string err;
+  // 100 ticks in 10 ms (the floor: 20 ms) is 0.38 m/s: allowed at the default, not at
+  // max_speed_mps 0.1 (42 ticks)
+  const std::string enc = "enc 0.00 0 0\nenc 0.01 100 0\n";
+  ASSERT_TRUE(parseOdolog(std::string(kHeader) + enc, "a.odolog", &log, &err)) << err;
+  EXPECT_TRUE(log.enc_rejected.empty());
+  ASSERT_TRUE(parseOdolog(std::string(kHeader) + "param max_speed_mps 0.1\n" + enc, "b.odolog", &log, &err)) << err;
+  ASSERT_EQ(log.enc_rejected.size(), 1u);
+  EXPECT_TRUE(log.enc_limits.speed_given);
+  EXPECT_NEAR(log.enc_rejected[0].limit, 0.1 * 4096 / (2 * kPi<double> * 0.05) * 0.02 + 16, 1e-6);
+  // sync: the steering channel's own limit (ticks_per_rad x max_steer_rate_radps)
+  const std::string sync = "odolog 1\ndrive sync\nparam ticks_per_m 1000\nparam ticks_per_rad 1000\n"
+                           "param max_steer_rate_radps 2\nenc 0.0 0 0\nenc 0.1 40 150\nenc 0.2 80 650\n";
+  ASSERT_TRUE(parseOdolog(sync, "s.odolog", &log, &err)) << err;
+  ASSERT_EQ(log.enc_rejected.size(), 1u);  // 500 steering ticks > 2 rad/s x 0.2 s (the floor) x 1000 + 16
+  EXPECT_EQ(log.enc_rejected[0].channel, 'B');
+  EXPECT_EQ(log.enc_rejected[0].line, 8);
+  EXPECT_EQ(log.enc[2].b, 150);
+}
+
+// A log whose stamps do not measure time (`meta time_base order`, an importer's --time order):
+// the log's own rule, 100 x the channel's median nonzero increment. 20,000 ticks per 0.1 s
+// (15 m/s if the stamps were time) are its ordinary motion; a glitch of 10^7 is not.
+TEST(OdologReader, SyntheticTimeUsesTheLogsOwnIncrements) {
+  Odolog log;
+  std::string err;
+  const std::string data = "enc 0.0 0 0\nenc 0.1 20000 20000\nenc 0.2 40000 40000\nenc 0.3 60000 60000\n"
+                           "enc 0.4 10060000 80000\n";
+  ASSERT_TRUE(parseOdolog(std::string(kHeader) + data, "real.odolog", &log, &err)) << err;
+  EXPECT_EQ(log.enc_rejected.size(), 8u) << "as time, every increment of both channels is too fast";
+  ASSERT_TRUE(parseOdolog(std::string(kHeader) + "meta time_base order\n" + data, "syn.odolog",
+                          &log, &err))
+      << err;
+  EXPECT_TRUE(log.enc_limits.synthetic_time);
+  ASSERT_EQ(log.enc_rejected.size(), 1u);
+  EXPECT_EQ(log.enc_rejected[0].line, 15);
+  EXPECT_DOUBLE_EQ(log.enc_rejected[0].limit, 100 * 20000.0 + 16);
+  EXPECT_EQ(log.enc[4].a, 60000);
+  EXPECT_EQ(log.enc[4].b, 80000);
 }
 
 TEST(OdologReader, SimulatorOutputRoundTrips) {

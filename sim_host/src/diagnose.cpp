@@ -16,6 +16,7 @@
 #include "diagnose/model_search.hpp"
 #include "diagnose/physical.hpp"
 #include "diagnose/ranking.hpp"
+#include "odoerr/sim/odolog_json.hpp"
 
 namespace odoerr::sim {
 
@@ -267,7 +268,15 @@ bool diagnoseDrive(const Odolog& log, const DiagnoseOptions& opt, json* out, std
   j = json::object();
   j["log"] = log.path;
   j["drive"] = log.drive;
-  j["verdict"] = !st.has_data ? "undetermined" : consistent ? "consistent" : "inconsistent";
+  j["verdict"] = !st.has_data ? "insufficient data" : consistent ? "consistent" : "inconsistent";
+  if (!st.has_data) j["verdict_missing"] = st.missing;
+  j["encoder_rejections"] = rejectionsJson(log);
+  {
+    // What the verdict rests on that the user must know: increments the reader rejected.
+    json caveats = json::array();
+    if (!log.enc_rejected.empty()) caveats.push_back(rejectionSummary(log));
+    j["verdict_caveats"] = caveats;
+  }
   j["tests"] = tests;
   j["ranking"] = ranking;
   j["heldout"] = heldout;

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cerrno>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
@@ -98,6 +99,73 @@ bool isHeader(const std::string& t) {
   return t == "drive" || t == "param" || t == "laser" || t == "wall" || t == "init" || t == "meta";
 }
 bool isData(const std::string& t) { return t == "enc" || t == "scan" || t == "pose" || t == "truth"; }
+
+// The plausibility rule (docs/odolog.md, "Plausibility"), the firmware encoder driver's
+// on the host: an increment of a channel beyond its fastest count times the interval, plus
+// a margin, is rejected and recorded; it contributes nothing, and the channel's later counts
+// are shifted by it. A difference or a shifted count that would leave the 64-bit range is
+// rejected the same way, so no difference the tools take can overflow.
+void rejectImpossibleIncrements(Odolog* log) {
+  const bool sync = log->drive == "sync";
+  const DriveConstants c = driveConstants(*log, sync);
+  OdologLimits& L = log->enc_limits;
+  L.speed_given = log->hasParam("max_speed_mps");
+  L.max_speed_mps = log->param("max_speed_mps", kDefaultMaxSpeedMps);
+  L.ticks_per_s_a = L.max_speed_mps * c.ticks_a;
+  if (sync) {
+    L.steer_given = log->hasParam("max_steer_rate_radps");
+    L.max_steer_rate_radps = log->param("max_steer_rate_radps", kDefaultMaxSteerRateRadps);
+    L.ticks_per_s_b = L.max_steer_rate_radps * c.ticks_b;
+  } else {
+    L.ticks_per_s_b = L.max_speed_mps * c.ticks_b;
+  }
+  L.margin_ticks = kEncMarginTicks;
+  for (const auto& [k, v] : log->meta)
+    if (k == "time_base" && v == "order") L.synthetic_time = true;
+  std::vector<OdologEnc>& e = log->enc;
+  if (e.size() < 2) return;
+  auto median = [](std::vector<double> v) {
+    if (v.empty()) return 0.0;
+    const std::size_t m = v.size() / 2;
+    std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(m), v.end());
+    return v[m];
+  };
+  {
+    std::vector<double> dts, inc_a, inc_b;
+    for (std::size_t i = 1; i < e.size(); ++i) {
+      if (e[i].t > e[i - 1].t) dts.push_back(e[i].t - e[i - 1].t);
+      const double da = std::fabs(static_cast<double>(e[i].a) - static_cast<double>(e[i - 1].a));
+      const double db = std::fabs(static_cast<double>(e[i].b) - static_cast<double>(e[i - 1].b));
+      if (da > 0) inc_a.push_back(da);
+      if (db > 0) inc_b.push_back(db);
+    }
+    L.dt_floor_s = 2 * median(dts);
+    L.median_increment_a = median(inc_a);
+    L.median_increment_b = median(inc_b);
+  }
+  std::int64_t prev[2] = {e[0].a, e[0].b};  // the raw counts of the previous record
+  std::int64_t kept[2] = {e[0].a, e[0].b};  // the counts with the rejected increments left out
+  const double tps[2] = {L.ticks_per_s_a, L.ticks_per_s_b};
+  const double own[2] = {kSyntheticFactor * L.median_increment_a, kSyntheticFactor * L.median_increment_b};
+  for (std::size_t i = 1; i < e.size(); ++i) {
+    const double dt = std::max({0.0, e[i].t - e[i - 1].t, L.dt_floor_s});
+    std::int64_t* now[2] = {&e[i].a, &e[i].b};
+    for (int k = 0; k < 2; ++k) {
+      const std::int64_t raw = *now[k];
+      const double limit = (L.synthetic_time ? own[k] : tps[k] * dt) + L.margin_ticks;
+      std::int64_t d = 0, next = 0;
+      const bool overflow = __builtin_sub_overflow(raw, prev[k], &d);
+      if (overflow || std::fabs(static_cast<double>(d)) > limit || __builtin_add_overflow(kept[k], d, &next)) {
+        log->enc_rejected.push_back({e[i].t, e[i].line, k == 0 ? 'A' : 'B',
+                                     static_cast<double>(raw) - static_cast<double>(prev[k]), limit});
+      } else {
+        kept[k] = next;
+      }
+      prev[k] = raw;
+      *now[k] = kept[k];
+    }
+  }
+}
 
 }  // namespace
 
@@ -195,6 +263,7 @@ bool parseOdolog(const std::string& text, const std::string& name, Odolog* out, 
       if (type == "enc") {
         if (!p.count(f, 3, "T A B")) return false;
         OdologEnc e{t, 0, 0};
+        e.line = p.line;
         if (!p.integer(f[2], "enc A", &e.a) || !p.integer(f[3], "enc B", &e.b)) return false;
         out->enc.push_back(e);
       } else if (type == "scan") {
@@ -245,6 +314,10 @@ bool parseOdolog(const std::string& text, const std::string& name, Odolog* out, 
     if (!out->hasParam(r)) return p.fail(std::string("drive ") + out->drive + " needs 'param " + r + "'");
     if (!(out->param(r, 0) > 0)) return p.fail(std::string("param ") + r + " must be positive");
   }
+  for (const char* r : {"max_speed_mps", "max_steer_rate_radps"}) {
+    if (out->hasParam(r) && !(out->param(r, 0) > 0)) return p.fail(std::string("param ") + r + " must be positive");
+  }
+  rejectImpossibleIncrements(out);
   return true;
 }
 
@@ -257,6 +330,18 @@ bool readOdolog(const std::string& path, Odolog* out, std::string* error) {
   std::ostringstream ss;
   ss << f.rdbuf();
   return parseOdolog(ss.str(), path, out, error);
+}
+
+std::string rejectionSummary(const Odolog& log) {
+  const std::size_t n = log.enc_rejected.size();
+  if (n == 0) return "";
+  const OdologRejection& r = log.enc_rejected.front();
+  char buf[320];
+  std::snprintf(buf, sizeof buf,
+                "%zu encoder increment%s rejected as impossible for the drive (the first at %s:%d, t=%.2f s, "
+                "channel %c: %.0f ticks, at most %.0f)",
+                n, n == 1 ? "" : "s", log.path.c_str(), r.line, r.t, r.channel, r.ticks, r.limit);
+  return buf;
 }
 
 DriveConstants driveConstants(const Odolog& log, bool sync) {

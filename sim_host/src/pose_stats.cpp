@@ -8,6 +8,7 @@
 // against truth. A test without data is null with a note, never 0.
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 #include <boost/math/distributions/chi_squared.hpp>
 
@@ -206,7 +207,7 @@ DriveStats computeStats(const std::vector<ScanRec>& scans, const std::vector<Bea
                         const std::vector<PoseFixRec>& fixes, bool has_laser, bool has_fixes) {
   DriveStats out = computeStats(scans, beams, obs, wheel_radius);
   json& t = out.tests;
-  const bool laser_data = has_laser && !scans.empty();
+  const bool laser_data = has_laser && beams.size() >= static_cast<std::size_t>(kMinLaserInnovations);
   if (!laser_data) {
     // Every laser test is empty: null with a note, out of the verdict.
     for (const char* k : {"nis_mean", "nis_mean_uncapped", "nis_band", "scans_outside_band_frac",
@@ -214,8 +215,14 @@ DriveStats computeStats(const std::vector<ScanRec>& scans, const std::vector<Bea
                           "nees_pose", "nis_consistent"})
       t[k] = nullptr;
     t["per_beam"] = json::array();
-    t["laser_note"] = has_laser ? "no scan was fused: the laser tests have no data and stay out of the verdict"
-                                : "the log has no laser: the laser tests have no data and stay out of the verdict";
+    char note[240];
+    std::snprintf(note, sizeof note,
+                  "%zu beams of %zu scans were predicted against the map (the laser tests need at least %d): the "
+                  "laser tests have no data and stay out of the verdict",
+                  beams.size(), scans.size(), kMinLaserInnovations);
+    t["laser_note"] = has_laser ? std::string(note)
+                                : std::string("the log has no laser: the laser tests have no data and stay out of the verdict");
+    out.missing.push_back(t["laser_note"].get<std::string>());
     for (auto& el : out.bins.items()) el.value() = nullptr;
     out.cusum["alarms"] = json::array();
     out.cusum["note"] = "the CUSUM runs on the scans' NIS: no scan";
@@ -232,6 +239,8 @@ DriveStats computeStats(const std::vector<ScanRec>& scans, const std::vector<Bea
     if (!fixes.empty()) {
       basis.push_back("pose_fixes");
       ok = ok && fix_ok;
+    } else {
+      out.missing.push_back("the log's pose fixes: none was fused");
     }
   }
   out.consistent = ok;

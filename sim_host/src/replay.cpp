@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include "odoerr/fw/paper_setup.hpp"
+#include "odoerr/sim/odolog_json.hpp"
 #include "odoerr/sim/host_map.hpp"
 #include "odoerr/sim/relocalise.hpp"
 #include "odoerr/sim/stats.hpp"
@@ -388,6 +389,7 @@ bool replayOdolog(const Odolog& log, const ReplayOptions& opt, ReplaySummary* su
   json j;
   j["log"] = log.path;
   j["drive"] = log.drive;
+  j["encoder_rejections"] = rejectionsJson(log);
   j["cycles"] = sum->cycles;
   j["scans_fused"] = sum->scans;
   j["scans_late"] = sum->scans_late;

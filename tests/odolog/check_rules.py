@@ -14,7 +14,8 @@ Usage: check_rules.py ODOERR --work DIR [--doc docs/odolog.md]
 - The doc's example (its one ```odolog block) is accepted, as is the same text with CRLF
   line ends; the example holds every record type.
 - Every file in accept/ is accepted; a line `# check: KEY=VALUE` in it compares
-  replay.json's KEY with VALUE.
+  replay.json's KEY (a dotted path into its objects, e.g. encoder_rejections.count) with
+  VALUE.
 
 Exit status 0 when everything holds, 1 otherwise (each failure printed), 2 bad usage.
 """
@@ -168,10 +169,16 @@ def main(argv=None):
             fails.append(f"accept/{name}: exit {rc}, expected 0: {err.strip()[:300]}")
             continue
         with open(os.path.join(acc_dir, name), encoding="utf-8") as f:
-            checks = re.findall(r"^# check: (\w+)=(\S+)$", f.read(), flags=re.M)
+            checks = re.findall(r"^# check: (\w+(?:\.\w+)*)=(\S+)$", f.read(), flags=re.M)
         with open(os.path.join(out, "replay.json"), encoding="utf-8") as f:
             summary = json.load(f)
-        bad = [(k, summary.get(k), v) for k, v in checks if str(summary.get(k)) != v]
+
+        def get(key):  # a dotted key walks into objects
+            v = summary
+            for part in key.split("."):
+                v = v.get(part) if isinstance(v, dict) else None
+            return v
+        bad = [(k, get(k), v) for k, v in checks if str(get(k)) != v]
         for key, got, want in bad:
             fails.append(f"accept/{name}: replay.json {key} = {got}, expected {want}")
         n_accepted += not bad

@@ -604,6 +604,9 @@ class Converter:
           f"odom sub-steps {self.substeps} ({self.after_last} after the last scan); "
           f"{self.prefix_odom} ODOM lines before the first scan dropped")
         if self.order:
+            # docs/odolog.md, meta time_base: the stamps order the records, they do not measure
+            # time (the reader's plausibility rule then uses the log's own increments)
+            w("meta time_base order")
             w(f"meta time synthetic t = {ORDER_STEP:g} s per line used, in file order (--time order: the log's "
               f"time stamps are not used); {self.stamps} lines")
         else:

@@ -16,6 +16,7 @@
 #include "odoerr/sim/evaluate.hpp"
 #include "odoerr/sim/map_io.hpp"
 #include "odoerr/sim/odolog.hpp"
+#include "odoerr/sim/odolog_json.hpp"
 
 namespace odoerr {
 
@@ -342,11 +343,25 @@ int runEvaluate(const EvalArgs& a) {
   j["rpe_by_length"] = curve_j;
   j["test_logs"] = tests;
   j["calibration_logs"] = cal_paths;
+  {
+    // The plausibility rule's rejections in every log, calibration and test.
+    json rej = json::object();
+    std::size_t n_rej = 0;
+    for (const auto* v : {&cal_logs, &test_logs})
+      for (const sim::Odolog& l : *v) {
+        rej[l.path] = sim::rejectionsJson(l);
+        n_rej += l.enc_rejected.size();
+      }
+    j["encoder_rejections"] = {{"count", n_rej}, {"logs", rej}};
+  }
   j["rpe_definition"] = "evo's relative pose error with delta in metres of the reference path; a segment starts "
                         "every 0.1 m of path; E = (Q_i^-1 Q_j)^-1 (P_i^-1 P_j); trans_m and rot_rad are means, "
                         "*_rmse_* the RMSE, pooled over the test logs' segments";
   if (!cli::writeFile(json_out, j.dump(2) + "\n", &err)) return fail(err);
   auto num = [](const json& v) { return v.is_number() ? v.get<double>() : std::nan(""); };
+  for (const auto* v : {&cal_logs, &test_logs})
+    for (const sim::Odolog& l : *v)
+      if (!l.enc_rejected.empty()) std::fprintf(stderr, "odoerr evaluate: %s\n", sim::rejectionSummary(l).c_str());
   std::fprintf(stderr, "odoerr evaluate: calibrated delta_R %.5f delta_L %.5f delta_d %.5f K_w %.3g on %zu logs\n",
                cal.c.delta_R, cal.c.delta_L, cal.c.delta_d, cal.k_w, cal_logs.size());
   for (int l = 0; l < 2; ++l) {

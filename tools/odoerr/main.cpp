@@ -120,6 +120,13 @@ int runDiagnose(const std::string& log_path, const std::string& json_path, Diagn
     if (r["significant"].get<bool>()) named += (named.empty() ? "" : ", ") + r["effect"].get<std::string>();
   std::fprintf(stderr, "%s: %s; verdict %s; effects named: %s (%.1f s)\n", who, log_path.c_str(),
                result["verdict"].get<std::string>().c_str(), named.empty() ? "none" : named.c_str(), secs);
+  for (const auto& c : result["verdict_caveats"]) std::fprintf(stderr, "%s: but: %s\n", who, c.get<std::string>().c_str());
+  if (result.contains("verdict_missing")) {
+    for (const auto& m : result["verdict_missing"]) std::fprintf(stderr, "%s: missing: %s\n", who, m.get<std::string>().c_str());
+    // No verdict: exit 3 for diagnose (docs/diagnostics.md, "Exit status"); the report still
+    // draws its page, which says so.
+    return quiet ? 0 : 3;
+  }
   if (!quiet) printDiagnoseFindings(result);
   return 0;
 }
@@ -237,6 +244,7 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, " (%.4f m at the %zu truth records)", sum.pose_rmse_at_records_m, sum.truth_records_scored);
     }
     std::fprintf(stderr, "; wrote %s/\n", rp_out.c_str());
+    if (!log.enc_rejected.empty()) std::fprintf(stderr, "odoerr replay: %s\n", rejectionSummary(log).c_str());
     if (rp_reloc) {
       std::size_t rec = 0;
       for (const auto& e : sum.episodes) rec += e.t_recovered >= 0;

@@ -22,6 +22,36 @@ struct OdologEnc {
   double t;
   std::int64_t a;  ///< diff: right wheel ticks; sync: translation ticks (cumulative)
   std::int64_t b;  ///< diff: left wheel ticks; sync: steering ticks (cumulative)
+  int line = 0;    ///< the record's line in the file (0: not from a file)
+};
+
+/// An encoder increment the reader rejected: more than the drive can do in its interval
+/// (docs/odolog.md, "Plausibility"). It contributes nothing; the later counts of its channel
+/// are shifted by it, so one glitch costs one interval, as in the firmware's encoder driver.
+struct OdologRejection {
+  double t;       ///< the record's time (s)
+  int line;       ///< its line
+  char channel;   ///< 'A' or 'B'
+  double ticks;   ///< the increment (a double: it may lie beyond the 64-bit range)
+  double limit;   ///< the most the drive can do in that interval (ticks)
+};
+
+/// The limits the plausibility rule used: the fastest each channel can count and the
+/// margin allowed beyond it in any interval (the read time's jitter).
+struct OdologLimits {
+  double max_speed_mps = 0;        ///< diff: each wheel; sync: the translation
+  double max_steer_rate_radps = 0; ///< sync only
+  bool speed_given = false, steer_given = false;  ///< from the header's params, else defaults
+  double ticks_per_s_a = 0, ticks_per_s_b = 0;
+  double margin_ticks = 0;
+  /// The shortest interval the speed rule uses: twice the log's median interval between
+  /// `enc` records (a logger's stamps jitter: a record stamped early carries more motion).
+  double dt_floor_s = 0;
+  /// `meta time_base order`: the stamps order the records but do not measure time (an
+  /// importer's `--time order`); the rule is then the log's own: kSyntheticFactor x the
+  /// channel's median nonzero increment.
+  bool synthetic_time = false;
+  double median_increment_a = 0, median_increment_b = 0;
 };
 
 struct OdologScan {
@@ -56,6 +86,8 @@ struct Odolog {
   std::vector<OdologPose> poses;
   std::vector<OdologTruth> truth;
   int unknown_records = 0;
+  OdologLimits enc_limits;                   ///< the plausibility rule's limits
+  std::vector<OdologRejection> enc_rejected;  ///< the increments it rejected, in time order
 
   /// The value of a `param`, or `fallback` when absent.
   double param(const std::string& name, double fallback) const;
@@ -119,5 +151,17 @@ bool parseOdolog(const std::string& text, const std::string& name, Odolog* out, 
 
 /// Reads and parses a file; errors name the file (and the line).
 bool readOdolog(const std::string& path, Odolog* out, std::string* error);
+
+/// The defaults of the plausibility rule (docs/odolog.md, "Plausibility"), used when the
+/// header has no `param max_speed_mps` / `param max_steer_rate_radps`.
+inline constexpr double kDefaultMaxSpeedMps = 5.0;
+inline constexpr double kDefaultMaxSteerRateRadps = 10.0;
+inline constexpr double kEncMarginTicks = 16.0;
+inline constexpr double kSyntheticFactor = 100.0;
+
+/// One line for a printed summary: "" when nothing was rejected, else e.g.
+/// "2 encoder increments rejected as impossible (the first at LOG:57, t=12.30 s, channel A:
+/// 1000000 ticks, at most 44)".
+std::string rejectionSummary(const Odolog& log);
 
 }  // namespace odoerr::sim

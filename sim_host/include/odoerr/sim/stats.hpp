@@ -83,8 +83,13 @@ struct TrajRec {
 struct DriveStats {
   nlohmann::ordered_json tests, bins, cusum;
   bool consistent = true;
-  bool has_data = true;  ///< some test of the verdict had data (else the verdict is undetermined)
+  bool has_data = true;  ///< some test of the verdict had data (else: insufficient data)
+  std::vector<std::string> missing;  ///< what the verdict lacks, when a part had no data
 };
+
+/// The laser tests need at least this many beams predicted against the map (their NIS band
+/// is 1 +- 1.96 sqrt(2/n): at 30 beams +-0.72; fewer, and the band says nothing).
+inline constexpr int kMinLaserInnovations = 30;
 
 /// Statistics of one replay. obs: the OF's normalised observable residuals per update.
 DriveStats computeStats(const std::vector<ScanRec>& scans, const std::vector<BeamRec>& beams,
