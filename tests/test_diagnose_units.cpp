@@ -127,3 +127,42 @@ TEST(DiagnoseMap, BeamHitPoints) {
   EXPECT_NEAR(h.hy, 10.0, 1e-9);
   EXPECT_NEAR(h.range, std::sqrt(50.0) - 0.1, 1e-9);
 }
+
+// A region's history (map_history.hpp): the kind from when it disagreed.
+TEST(DiagnoseMap, RegionHistoryKinds) {
+  using odoerr::sim::diag::regionHistory;
+  using odoerr::sim::diag::RegionSighting;
+  auto make = [](int n, auto disagree) {
+    std::vector<RegionSighting> v;
+    for (int i = n - 1; i >= 0; --i) v.push_back({0.1 * i, disagree(i)});  // any order
+    return v;
+  };
+  // every pass disagrees: the map is wrong there
+  auto h = regionHistory(make(200, [](int i) { return i % 10 != 0; }));
+  EXPECT_EQ(h.kind, "persistent");
+  EXPECT_EQ(h.scans, 200);
+  EXPECT_EQ(h.disagreed, 180);
+  EXPECT_DOUBLE_EQ(h.t_first, 0.0);
+  EXPECT_NEAR(h.t_last, 19.9, 1e-12);
+  // a door opened at scan 120: agreed before, disagreed after
+  h = regionHistory(make(200, [](int i) { return i >= 120; }));
+  EXPECT_EQ(h.kind, "changed");
+  EXPECT_TRUE(h.changed);
+  EXPECT_NEAR(h.t_change, 11.95, 1e-9);
+  EXPECT_DOUBLE_EQ(h.share_before, 0.0);
+  EXPECT_DOUBLE_EQ(h.share_after, 1.0);
+  EXPECT_NEAR(h.t_disagreed_first, 12.0, 1e-12);
+  // a step too near the start (fewer than 20 scans on a side) is not a change
+  h = regionHistory(make(200, [](int i) { return i >= 15; }));
+  EXPECT_EQ(h.kind, "persistent");
+  // people passing: a few scans now and then
+  h = regionHistory(make(200, [](int i) { return i % 7 == 0; }));
+  EXPECT_EQ(h.kind, "transient");
+  // in between
+  h = regionHistory(make(200, [](int i) { return i % 2 == 0; }));
+  EXPECT_EQ(h.kind, "intermittent");
+  // nothing seen
+  h = regionHistory({});
+  EXPECT_EQ(h.scans, 0);
+  EXPECT_EQ(h.kind, "");
+}

@@ -69,7 +69,15 @@ CASES = {
     "phantom": ("phantom", [1.5, 3.0, 1.5, 4.5], "1.5 m wall in the map at x = 1.5, not in the world"),
     "shift_room": ("shift", [0, 0.10], "bottom room wall drawn 0.10 m into the room"),
     "shift_box": ("shift", [4, 0.10], "bottom wall of the 1.2 m box drawn 0.10 m into the box"),
+    # the world changing during the drive (tools/pysim/world_events.py)
+    "door": ("door", [1.5, 3.0, 1.5, 4.5, 120.0], "a door at x = 1.5 in the map, closed until 120 s, open after"),
+    "walker": ("walker", [7.5, 2.0, 7.5, 5.0, 0.8], "a person walking to and fro along x = 7.5, y 2..5 at 0.8 m/s"),
 }
+# Each region's history (map_misfit.regions[i].history) must tell these apart: a fixed map
+# error is "persistent"; the door "changed" within CHANGE_S of its opening; near the walker's
+# line no region is persistent or changed (one there is "transient" or "intermittent").
+EXPECT_KIND = {"object": "persistent", "phantom": "persistent", "door": "changed"}
+CHANGE_S = 20.0
 
 
 
@@ -120,6 +128,10 @@ def target(kind, values, log):
     walls, truth = read_walls_truth(log)
     if kind == "object":
         return box_outline(*values), "short", "an object: beams end early"
+    if kind == "door":
+        return [[float(v) for v in values[:4]]], "long", "a door opened at %.0f s: beams go further after" % values[4]
+    if kind == "walker":
+        return [[float(v) for v in values[:4]]], None, "a person passing: at most a transient region"
     if kind == "phantom":
         seg = [float(v) for v in values]
         if not any(all(abs(a - b) < 1e-9 for a, b in zip(seg, w)) for w in walls):
@@ -230,10 +242,29 @@ def check_case(args, name, seed):
         scored.sort(key=lambda t: t[0])
         hits = [(d, r) for d, r in scored if d <= MATCH_M and r.get("sign") == sign]
         rec["regions"] = len(regions)
-        if hits:
+        if sign is None:  # the walker: nothing fixed may be found where it walks
+            near = [(d, r) for d, r in scored if d <= 0.5 + MATCH_M]
+            fixed = [(d, r) for d, r in near if (r.get("history") or {}).get("kind") in ("persistent", "changed")]
+            info.append("%d region(s) near its line%s" % (len(near), ": " + "; ".join(
+                "%s, %s" % (region_text(r), (r.get("history") or {}).get("kind")) for _, r in near) if near else ""))
+            if fixed:
+                fails.append("a region near the walker's line is %s: %s" % (
+                    (fixed[0][1].get("history") or {}).get("kind"), region_text(fixed[0][1])))
+        elif hits:
             d, r = hits[0]
             info.append("region %s at %.2f m from the error" % (region_text(r), d))
             rec.update(match_m=d, region=r)
+            h = r.get("history") or {}
+            want = EXPECT_KIND.get(kind)
+            if want:
+                ch = h.get("change") or {}
+                info.append("history: %s%s" % (h.get("kind"), ", changed at %.1f s" % ch["t"] if ch.get("t") else ""))
+                if h.get("kind") != want:
+                    fails.append("the region is %s, not %s (disagreed in %s of %s scans)" % (
+                        h.get("kind"), want, (h.get("disagreed") or {}).get("scans"), (h.get("seen") or {}).get("scans")))
+                elif kind == "door" and abs(ch.get("t", -1e9) - values[4]) > CHANGE_S:
+                    fails.append("the change at %s s is more than %g s from the door's opening at %g s" % (
+                        ch.get("t"), CHANGE_S, values[4]))
         else:
             near = "; ".join("%s at %.2f m" % (region_text(r), d) for d, r in scored[:3])
             fails.append("no %s region within %.1f m of the error (%d region(s)%s)" % (
@@ -287,7 +318,7 @@ def check_case(args, name, seed):
     rec["today"] = todays_words(j)
     status = "ok" if not fails else "FAIL: " + "; ".join(fails)
     line = "%s: %s | expect %s near %s (%s) | %s | odosim %.2f s, diagnose %.1f s" % (
-        label, status, sign, words, why, " | ".join(info), gen_s, diag_s)
+        label, status, sign or "nothing fixed", words, why, " | ".join(info), gen_s, diag_s)
     rec.update(ok=not fails, line=line)
     return not fails, line, rec
 

@@ -55,7 +55,12 @@ def add_map_misfit(doc, outdir, walls, hx, hy, z, b_scan, scan_x, scan_y, rng):
               "extent_m": [round(float(np.ptp(ux[in_reg]) + CELL), 3), round(float(np.ptp(uy[in_reg]) + CELL), 3)],
               "sign": "short", "beams": rb, "mean_norm": round(float(np.mean(z[sel])), 4), "scans": int(scans.size),
               "seen_from": [[round(float(scan_x[s]), 3), round(float(scan_y[s]), 3)] for s in pick],
-              "candidate_segment": list(CABINET)}
+              "candidate_segment": list(CABINET),
+              # when it was seen and how often it disagreed (diagnose's map_history)
+              "history": {"kind": "persistent",
+                          "seen": {"scans": int(scans.size), "t_first": 2.0, "t_last": 231.5},
+                          "disagreed": {"scans": int(0.9 * scans.size), "share": 0.9, "t_first": 2.0, "t_last": 231.5},
+                          "change": None}}
     named = {r["effect"] for r in doc["ranking"] if r.get("significant")}
     doc["map_misfit"] = {
         "cell_m": CELL, "grid": {"x0": x0, "y0": y0, "nx": nx, "ny": ny}, "cells_tested": tested,

@@ -258,7 +258,8 @@ if [ -s "$page" ]; then
   expect_in "map section in the full report" "$page" \
     '<h2 id="map-misfit">Where the map is wrong</h2>' "href='#map-misfit'" \
     'alt="map with the residual grid and the regions where the map is wrong"' \
-    "1 region(s) where the laser disagrees with the map" "R1 <b>short</b> at (10.12, 4.99) m (something the map lacks)" \
+    "1 region(s) where the laser disagrees with the map" "R1 <b>short</b>, <b>persistent</b> at (10.12, 4.99) m (something the map lacks)" \
+    "the map is wrong here: every pass disagrees" "disagreed in" \
     "(9.65, 4.50) → (9.65, 5.50) m" "1.00 m long" "0.25 × 1.00 m" "−4.18" "over the $cells cells tested" \
     "The effect ranking above left out the 4,123 beams" "laser_mount_xy (p &lt; 0.0001)" \
     "without them it names wall_offset, turn_slip, range_bias."

@@ -133,6 +133,10 @@ error). Each is also written as ``meta truth_map_error KIND V1 ...`` (after the
                       from the robot: SHORTER). Only the written end points move (the
                       corners of the neighbouring walls stay where they are). |d| <= 1 m,
                       i an integer in 0..W-1, each wall shifted at most once.
+    door=x1,y1,x2,y2,t_open, walker=x1,y1,x2,y2,speed
+                      the world changing during the drive: a door closed until t_open s
+                      and open after; a 0.4 m person walking to and fro along a segment
+                      (tools/pysim/world_events.py has their rules).
 Refused with exit status 2: an unknown kind, a wrong value count, values that are not
 finite numbers, w or h <= 0, a zero-length phantom, an index out of range. An object or
 a phantom may overlap a real wall (a cabinet against a wall). The map errors change
@@ -282,9 +286,13 @@ import argparse
 import bisect
 import math
 import sys
+import os
 import time
 
 import numpy as np
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import world_events  # noqa: E402  (doors and walkers: the world changing during the drive)
 
 # ---------------------------------------------------------------------------
 # Fixed set-up
@@ -439,6 +447,7 @@ MAP_ERRORS = {
                   "the map (ranges shorter)"),
     "phantom": (4, "x1, y1, x2, y2 (m): a wall in the map, not in the world (ranges longer)"),
     "shift": (2, "i, d (index, m): map wall i written d along its left normal"),
+    **world_events.KINDS,
 }
 
 # Suggested test placements (tests/diagnose/check_map.py): name -> (kind, values, note)
@@ -531,6 +540,8 @@ def parse_map_errors(specs, parser, path=None):
                 parser.error(f"--map-error {spec!r}: the phantom wall has zero length")
             if not (inside(x1, y1) and inside(x2, y2)):
                 parser.error(f"--map-error {spec!r}: the phantom wall must lie inside the room")
+        elif kind in world_events.KINDS:
+            values = world_events.check(kind, values, spec, parser.error, inside, path)
         else:
             i, d = values
             if i != int(i) or not 0 <= int(i) < len(WALLS):
@@ -554,6 +565,7 @@ def map_walls(map_errors):
         nx, ny = -(y2 - y1) / length, (x2 - x1) / length
         walls[i] = [x1 + d * nx, y1 + d * ny, x2 + d * nx, y2 + d * ny]
     walls += [list(map(float, p)) for p in (map_errors or {}).get("phantom", [])]
+    walls += world_events.map_walls(map_errors)
     return walls
 
 
@@ -993,8 +1005,12 @@ def simulate_scans(truth, n_steps, effects, rng_scan, map_errors=None, seen=None
 
     world = np.concatenate([true_walls(effects), object_walls(map_errors)])
     r_true, cos_inc = cast_rays(ox, oy, ang, world, incidence=True)
+    r_true, changed = world_events.apply(r_true, t_scan, ox, oy, ang, map_errors, cast_rays)
     if seen is not None and map_errors:
         seen.extend(map_error_visibility(ox, oy, ang, r_true, map_errors))
+        ok = np.isfinite(r_true) & (r_true <= RANGE_MAX)
+        for (kind, i), m in changed.items():
+            seen.append((kind, map_errors[kind][i], int((m & ok).sum()), int((m & ok).any(axis=1).sum())))
     r = r_true
     c_inc = effects.get("ooc_incidence_bias", [0.0])[0]
     if c_inc:

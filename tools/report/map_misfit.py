@@ -17,6 +17,29 @@ def xy(x, y):
     return f"({x:.2f}, {y:.2f}) m".replace("-", "−")
 
 
+KIND = {"persistent": "the map is wrong here: every pass disagrees",
+        "changed": "the place changed during the drive (a door opened or closed, something moved in or out)",
+        "transient": "something that comes and goes (people walking by, a trolley): not the map's fault",
+        "intermittent": "disagrees on some passes only"}
+
+
+def when(h):
+    """The region's history (diagnose.json map_misfit.regions[i].history) in words."""
+    if not isinstance(h, dict) or not h.get("kind"):
+        return "—"
+    seen, dis = h.get("seen") or {}, h.get("disagreed") or {}
+    t1, t2 = seen.get("t_first"), seen.get("t_last")
+    span = f"{t1:.1f}–{t2:.1f} s" if is_num(t1) and is_num(t2) else "—"
+    s = (f"seen by {fnum(seen.get('scans'))} scans, {span}; "
+         f"disagreed in {fnum(dis.get('scans'))}"
+         + (f" ({100 * dis['share']:.0f} %)" if is_num(dis.get("share")) else ""))
+    ch = h.get("change")
+    if isinstance(ch, dict) and is_num(ch.get("t")):
+        s += (f"; changed at {ch['t']:.1f} s ({100 * ch['share_before']:.0f} % of the scans before, "
+              f"{100 * ch['share_after']:.0f} % after)")
+    return s
+
+
 def region_row(k, r):
     seg = r.get("candidate_segment")
     ext = r.get("extent_m") or []
@@ -25,7 +48,10 @@ def region_row(k, r):
            "extent": f"{ext[0]:.2f} × {ext[1]:.2f} m" if len(ext) == 2 else "—",
            "beams": fnum(r.get("beams")), "scans": fnum(r.get("scans")),
            "z": f"{r['mean_norm']:+.2f}".replace("-", "−") if is_num(r.get("mean_norm")) else "—",
-           "seg": None, "seg_len": None}
+           "seg": None, "seg_len": None,
+           "kind": (r.get("history") or {}).get("kind") or "—",
+           "kind_text": KIND.get((r.get("history") or {}).get("kind"), "not in this diagnose.json"),
+           "when": when(r.get("history"))}
     if seg:
         row["seg"] = f"{xy(seg[0], seg[1])[:-2]} → {xy(seg[2], seg[3])}"
         row["seg_len"] = f"{math.hypot(seg[2] - seg[0], seg[3] - seg[1]):.2f} m"

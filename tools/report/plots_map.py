@@ -112,7 +112,8 @@ def fig_map_misfit(plt, m, grid, walls, traj, n_seen=3):
             xs += [seg[0], seg[2]]
             ys += [seg[1], seg[3]]
         # The label beside the region, on the side toward the middle of the map when it can.
-        ax.annotate(f"R{k + 1} {r.get('sign') or '?'}", (bx1, by1), xytext=(4, 4), textcoords="offset points",
+        kind = (r.get("history") or {}).get("kind")
+        ax.annotate(f"R{k + 1} {r.get('sign') or '?'}" + (f", {kind}" if kind else ""), (bx1, by1), xytext=(4, 4), textcoords="offset points",
                     fontsize=11, fontweight="bold", color=col, zorder=8, va="bottom", ha="left",
                     bbox=dict(boxstyle="round,pad=0.25", fc="white", ec=col, lw=1.3, alpha=0.92))
     map_limits(ax, walls, (np.array(xs, float), np.array(ys, float)), (traj["x"], traj["y"]))

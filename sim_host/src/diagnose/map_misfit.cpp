@@ -20,6 +20,26 @@ constexpr double kCornerM = 0.05;    // a hit this close to a wall's end may jum
 constexpr double kMarginM = 1.0;     // the grid covers the walls' box and this much around it
 constexpr double kMergeM = 0.3;      // short regions whose beams end this close are one thing
 constexpr double kShortZ = 3.0;      // a beam this many sigmas short ended on something the map lacks
+constexpr double kPlaceMarginM = 0.05;  // a short region's place: its extent and this much around
+constexpr int kPlaceShareInv = 3;       // a scan disagrees there when 1 / this of its crossing beams ended there
+
+/// Whether the segment (x0, y0)-(x1, y1) meets the box [bx0, bx1] x [by0, by1] (slabs).
+bool segmentCrossesBox(double x0, double y0, double x1, double y1, double bx0, double by0, double bx1, double by1) {
+  double t0 = 0, t1 = 1;
+  const double d[2] = {x1 - x0, y1 - y0}, o[2] = {x0, y0}, lo[2] = {bx0, by0}, hi[2] = {bx1, by1};
+  for (int k = 0; k < 2; ++k) {
+    if (std::abs(d[k]) < 1e-12) {
+      if (o[k] < lo[k] || o[k] > hi[k]) return false;
+      continue;
+    }
+    double a = (lo[k] - o[k]) / d[k], b = (hi[k] - o[k]) / d[k];
+    if (a > b) std::swap(a, b);
+    t0 = std::max(t0, a);
+    t1 = std::min(t1, b);
+    if (t0 > t1) return false;
+  }
+  return true;
+}
 
 /// z with P(|N(0,1)| > z) = p.
 double twoSidedQuantile(double p) {
@@ -65,6 +85,7 @@ MapMisfit mapMisfit(const En& en, const typename En::RunOut& run, double cell_m)
     long key;
     double z, mx, my;  // normalised residual; where the beam really ended
     double hx, hy;     // where the map says it ends
+    double lx, ly;     // where it starts (the laser)
   };
   std::vector<Hit> hits;
   m.walls.resize(log.walls.size());
@@ -93,7 +114,7 @@ MapMisfit mapMisfit(const En& en, const typename En::RunOut& run, double cell_m)
     }
     const double rm = bh.range + b.nu;
     hits.push_back({cy * m.nx + cx, b.post, static_cast<long>(ev.scan) * nbeams + b.beam, z, bh.lx + rm * bh.ux,
-                    bh.ly + rm * bh.uy, hx, hy});
+                    bh.ly + rm * bh.uy, hx, hy, bh.lx, bh.ly});
   }
   // Per cell: the beams, and the scans (beams of one scan share its pose error, so the
   // test counts scans, not beams: per-scan means, then a t over them).
@@ -282,6 +303,47 @@ MapMisfit mapMisfit(const En& en, const typename En::RunOut& run, double cell_m)
       m.regions.erase(m.regions.begin() + static_cast<std::ptrdiff_t>(j));
     }
   }
+  // When each region was seen and how often it disagreed (map_history.hpp). A long region
+  // (the map has a wall the ranges pass) is seen by the scans whose beams the map says end
+  // in it; a scan disagrees when their mean z is kDisagreeZ or more. A short region
+  // (something the map lacks) is a place where beams ended early: it is seen by every scan
+  // with a beam whose line of sight crosses the place (the beam would end there if the
+  // thing were there), and a scan disagrees when at least a third of those beams ended
+  // there, kDisagreeZ or more short. A cabinet stops every beam that crosses it; a person walking
+  // by stops few of the beams that cross the line they walk.
+  {
+    std::vector<int> region_of(ncell, -1);
+    for (std::size_t i = 0; i < m.regions.size(); ++i)
+      for (int k : m.regions[i].cells) region_of[static_cast<std::size_t>(k)] = static_cast<int>(i);
+    for (std::size_t i = 0; i < m.regions.size(); ++i) {
+      const MapRegion& r = m.regions[i];
+      std::map<int, std::pair<int, int>> per_post;  // post -> (beams seeing it, disagreeing)
+      if (!r.short_) {
+        std::map<int, std::pair<double, int>> zs;
+        for (const Hit& h : hits)
+          if (region_of[static_cast<std::size_t>(h.cell)] == static_cast<int>(i)) {
+            zs[h.post].first += h.z;
+            ++zs[h.post].second;
+          }
+        for (const auto& [post, s] : zs) per_post[post] = {1, s.first / s.second >= kDisagreeZ ? 1 : 0};
+      } else {
+        const double hw = 0.5 * std::max(r.w, 0.1) + kPlaceMarginM, hh = 0.5 * std::max(r.h, 0.1) + kPlaceMarginM;
+        const double bx0 = r.x - hw, bx1 = r.x + hw, by0 = r.y - hh, by1 = r.y + hh;
+        for (const Hit& h : hits) {
+          if (!segmentCrossesBox(h.lx, h.ly, h.hx, h.hy, bx0, by0, bx1, by1)) continue;
+          auto& pp = per_post[h.post];
+          ++pp.first;
+          if (h.z <= -kDisagreeZ && h.mx >= bx0 && h.mx <= bx1 && h.my >= by0 && h.my <= by1) ++pp.second;
+        }
+      }
+      std::vector<RegionSighting> seen;
+      for (const auto& [post, c] : per_post)
+        if (c.first > 0)
+          seen.push_back({run.post[static_cast<std::size_t>(post)].t,
+                          r.short_ ? kPlaceShareInv * c.second >= c.first : c.second > 0});
+      m.regions[i].history = regionHistory(std::move(seen));
+    }
+  }
   // largest evidence first
   std::sort(m.regions.begin(), m.regions.end(), [](const MapRegion& a, const MapRegion& b) {
     return std::abs(a.mean_norm) * double(a.beams) > std::abs(b.mean_norm) * double(b.beams);
@@ -302,7 +364,8 @@ json mapMisfitJson(const MapMisfit& m, const std::string& grid_csv) {
                        {"mean_norm", r.mean_norm},
                        {"scans", r.poses},
                        {"seen_from", seen},
-                       {"candidate_segment", r.has_segment ? json({r.seg[0], r.seg[1], r.seg[2], r.seg[3]}) : json(nullptr)}});
+                       {"candidate_segment", r.has_segment ? json({r.seg[0], r.seg[1], r.seg[2], r.seg[3]}) : json(nullptr)},
+                       {"history", regionHistoryJson(r.history)}});
   }
   json walls = json::array();
   for (std::size_t i = 0; i < m.walls.size(); ++i) {

@@ -15,6 +15,7 @@
 #include <nlohmann/json.hpp>
 
 #include "engine.hpp"
+#include "map_history.hpp"
 
 namespace odoerr::sim::diag {
 
@@ -30,6 +31,7 @@ struct MapRegion {
   bool has_segment = false;
   double seg[4] = {0, 0, 0, 0};  ///< candidate wall: where the beams really ended, as a line
   std::vector<int> cells;        ///< grid cells (row-major index)
+  RegionHistory history;         ///< when it was seen, how often it disagreed, its kind
 };
 
 struct MapMisfit {
