@@ -232,6 +232,7 @@ bool run(const Odolog& log, const ReplayOptions& opt, ReplaySummary* sum, std::s
   };
   int evidence = 0, failed = 0;
   bool lost = false;
+  bool stopped = false;  // opt.stop_when_lost and a loss was declared
   auto track = [&](const OdologScan& sc) {
     const std::vector<ScanPoint> pts = scanPoints(log.laser, sc.ranges.data(), rules.max_points);
     const auto& x = est.akf().state();
@@ -276,6 +277,7 @@ bool run(const Odolog& log, const ReplayOptions& opt, ReplaySummary* sum, std::s
         failed = 0;
         sum->episodes.push_back({sc.t, -1, fit, 0, 0, 0});
         state = "lost";
+        stopped = opt.stop_when_lost;
       }
     }
     // While lost, the search runs on every rules.widen_after-th scan (a wide window costs
@@ -283,7 +285,7 @@ bool run(const Odolog& log, const ReplayOptions& opt, ReplaySummary* sum, std::s
     if (lost && failed % rules.widen_after != 0 && fit < rules.poor_fit) {
       ++failed;
       state = "lost";
-    } else if (lost) {
+    } else if (lost && !stopped) {
       const int widen = failed / rules.widen_after;
       const double wm = std::min(rules.max_window_m, rules.window_m * double(1 << std::min(widen, 8)));
       const double wr = std::min(rules.max_window_rad, rules.window_rad * double(1 << std::min(widen, 8)));
@@ -324,7 +326,7 @@ bool run(const Odolog& log, const ReplayOptions& opt, ReplaySummary* sum, std::s
   std::size_t ie = 0, is = 0, ip = 0;
   const double inf = std::numeric_limits<double>::infinity();
   std::vector<S> ranges(log.has_laser ? log.laser.beams : 0);
-  while (ie < log.enc.size() || is < log.scans.size() || ip < log.poses.size()) {
+  while (!stopped && (ie < log.enc.size() || is < log.scans.size() || ip < log.poses.size())) {
     const double te = ie < log.enc.size() ? log.enc[ie].t : inf;
     const double ts = is < log.scans.size() ? log.scans[is].t : inf;
     const double tp = ip < log.poses.size() ? log.poses[ip].t : inf;
@@ -355,6 +357,7 @@ bool run(const Odolog& log, const ReplayOptions& opt, ReplaySummary* sum, std::s
   }
   if (tracking) sum->fit_median = medianFit();
   sum->lost_at_end = lost;
+  sum->stopped_when_lost = stopped;
   if (lost && !good.empty()) est = good.front();  // the parameters from before the loss
   const auto& c = est.akf().counters();
   sum->beams_used = c.beams_used;
@@ -410,6 +413,7 @@ bool replayOdolog(const Odolog& log, const ReplayOptions& opt, ReplaySummary* su
     tr["scans_checked"] = sum->scans_checked;
     tr["scans_poor"] = sum->scans_poor;
     tr["pose_corrections"] = sum->pose_corrections;
+    tr["stopped_when_lost"] = sum->stopped_when_lost;
     tr["fit_median"] = sum->fit_median >= 0 ? json(sum->fit_median) : json(nullptr);
     std::size_t recovered = 0;
     json eps = json::array();

@@ -8,9 +8,10 @@ are an odolog without reference poses and one without laser scans (exit 2, namin
 With the CARMEN data (import_common.data_dir(): $ODOERR_DATA, else ../shared/data; skipped
 with a message, exit 77, without it): the Intel lab's first 300 scans, no option but the
 crop: the contract's keys are there, the robot is tracked (not lost, pose RMS at the
-corrected poses <= 0.15 m), every setting says why, and the calibration is NOT trusted with
-the growth as its reason (on 150 scans K_w predicts the checked half's growth 3x off), which
-the printed summary says too. Orebro, the whole log: the importer's three choices made from
+corrected poses <= 0.15 m), every setting says why (the range sigma with every candidate
+tried and its fit), and the calibration is TRUSTED: the checked half's 5 m RPE falls in
+translation and rotation, the growth K_w predicts is within 1.5x, and the constants used
+are the calibrated ones, which the printed summary says too. Orebro, the whole log: the importer's three choices made from
 the data, and a calibration not trusted because 93 % of its intervals have no raw odometry.
 """
 import json
@@ -75,10 +76,15 @@ def main():
     check(not whys and all(k in c["settings"] for k in ("range_sigma_m", "k0_m", "param_sigma", "order_beams")),
           "every setting chosen says why: " + ", ".join(f"{k} {v['value']:.3g}" for k, v in c["settings"].items()
                                                         if k in ("range_sigma_m", "k0_m")))
-    cal = c["calibration"]
-    check(not cal["trusted"] and "growth" in cal["reason"] and "NOT TRUSTED" in r.stdout and
-          cal["use"] == cal["nominal"],
-          f"not trusted, the nominal constants stand: {cal['reason']}")
+    cand = c["settings"]["range_sigma_m"].get("candidates") or []
+    check(len(cand) >= 2 and all(isinstance(x.get("fit_mean"), float) for x in cand) and
+          c["settings"]["range_sigma_m"]["value"] in [x["value"] for x in cand],
+          "the range sigma: " + ", ".join(f"{x['value']:.3f} m fit {x['fit_mean']:.3f}" for x in cand))
+    cal, rpe = c["calibration"], c["rpe_5m_second_half"]
+    falls = rpe["calibrated"]["trans_m"] < rpe["nominal"]["trans_m"] and \
+        rpe["calibrated"]["rot_rad"] < rpe["nominal"]["rot_rad"]
+    check(cal["trusted"] and falls and "TRUSTED:" in r.stdout and cal["use"] == cal["constants"],
+          f"trusted, the calibrated constants used: {cal['reason']}")
     # Orebro, the whole log: every import choice made from the data, and a calibration that
     # must not be trusted (93 % of its scan intervals repeat the corrected pose).
     log = os.path.join(d, "carmen/orebro-corrected.log.gz")

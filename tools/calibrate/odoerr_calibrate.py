@@ -14,11 +14,12 @@ The steps, each an odoerr command or importer (printed as it runs, its output in
    CARMEN log, an occupancy grid from its corrected poses and scans, then its line segments
    (what a user's SLAM run would give); else the odolog's own walls.
 3. the settings, from the data (each value and its reason in calibration.json):
-   a first pass of the estimator over the first half gives the laser-to-map residuals
-   (range sigma: 1.4826 x their median absolute value, those within 1 m, within
-   0.03-0.30 m) and K_w
-   (the start of K for the next passes, within 1e-5-1e-2 m); beams are fused most
-   consistent first; the drive constants' prior is 5 %.
+   a first pass of the estimator over the first half gives K_w (the start of K for the
+   next passes, within 1e-5-1e-2 m) and the laser-to-map residuals (the residual sigma:
+   1.4826 x their median absolute value, those within 1 m); 1, 1.5, 2 and 3 times that
+   (within 0.03-0.30 m) are each tracked over the first half and the range sigma whose
+   track fits the map best is kept (choose.py); beams are fused most consistent first;
+   the drive constants' prior is 5 %.
 4. tracking: the whole log against the map with lost-track detection and relocalisation
    (`odoerr replay --relocalise`), scored at the log's reference poses where it has them.
 5. calibration: the log cut in two halves of path; the first half calibrates (and its two
@@ -55,9 +56,8 @@ IMPORT_DIR = os.path.join(HERE, "..", "import")
 PY = sys.executable
 sys.path.insert(0, IMPORT_DIR)
 import import_common  # noqa: E402  (the odolog helpers the importers share)
+import choose  # noqa: E402  (the settings chosen from the data)
 
-SIGMA_RANGE = (0.03, 0.30)    # m, the range sigma chosen from the residuals stays within
-RESIDUAL_BAND = 1.0          # m, the residuals the range sigma is measured on
 K0_RANGE = (1e-5, 1e-2)       # m, the start of K_w chosen from the first pass stays within
 PARAM_SIGMA = 0.05            # the drive constants' prior (relative)
 GROWTH_MAX = 1.5              # the predicted growth must be within this factor of the observed
@@ -124,7 +124,7 @@ class Runner:
             raise StepError(f"{what} failed (exit {r.returncode}): {r.stderr.strip()[-800:]}")
         return r
 
-    def replay(self, what, log, mp, out, settings, relocalise=True, k0=None):
+    def replay(self, what, log, mp, out, settings, relocalise=True, k0=None, stop_when_lost=False):
         cmd = [self.odoerr, "replay", log, "--out", self.path(out), "--order-beams",
                "--range-sigma", f"{settings['range_sigma_m']['value']:.4g}",
                "--param-sigma", f"{settings['param_sigma']['value']:g}"]
@@ -135,6 +135,8 @@ class Runner:
             cmd += ["--k0", f"{k:.4g}"]
         if relocalise:
             cmd.append("--relocalise")
+            if stop_when_lost:
+                cmd.append("--stop-when-lost")
         self.run(what, cmd)
         with open(os.path.join(self.path(out), "replay.json")) as f:
             return json.load(f)
@@ -144,22 +146,6 @@ def constants_of(rep):
     f = rep["final"]
     return ({k: f[k]["estimate"] for k in ("delta_R", "delta_L", "delta_d")},
             {k: f[k]["sigma"] for k in ("delta_R", "delta_L", "delta_d")}, f["K_w"]["estimate"])
-
-
-def residual_sigma(innovations_csv):
-    """1.4826 x the median absolute innovation of the beams the first pass predicted (used
-    or gated) within RESIDUAL_BAND of the map (a beam farther off hit something the map
-    lacks, or the track was off: it says nothing of the range noise), and how many."""
-    vals = []
-    with open(innovations_csv) as f:
-        next(f)
-        for line in f:
-            p = line.split(",")
-            if len(p) > 5 and p[5] and p[2] in ("used", "gated") and abs(float(p[5])) < RESIDUAL_BAND:
-                vals.append(abs(float(p[5])))
-    if len(vals) < 100:
-        return None, len(vals)
-    return 1.4826 * statistics.median(vals), len(vals)
 
 
 def meta_value(log, key):
@@ -334,17 +320,6 @@ def calibrate(a, r, fmt, settings):
     settings["range_sigma_m"] = {"value": a.range_sigma or 0.10, "why": "first pass"}
     probe = r.replay("first pass", r.path("first.odolog"), mp, "pass1", settings, relocalise=True,
                      k0=a.k0 or 3e-4)
-    sig, n = residual_sigma(os.path.join(r.path("pass1"), "innovations.csv"))
-    if a.range_sigma:
-        settings["range_sigma_m"] = {"value": a.range_sigma, "why": "given (--range-sigma)"}
-    elif sig is None:
-        raise StepError(f"the first pass predicted only {n} beams against the map: no range sigma can be measured "
-                        f"(is the map the log's building?)")
-    else:
-        v = min(max(sig, SIGMA_RANGE[0]), SIGMA_RANGE[1])
-        settings["range_sigma_m"] = {"value": v, "why": f"1.4826 x the median absolute laser-to-map residual "
-                                                        f"(within {RESIDUAL_BAND:g} m) of {n} beams in a first pass over the first half "
-                                                        f"({sig:.3f} m), within {SIGMA_RANGE[0]}-{SIGMA_RANGE[1]} m"}
     k_probe = probe["final"]["K_w"]["estimate"]
     if a.k0:
         settings["k0_m"] = {"value": a.k0, "why": "given (--k0)"}
@@ -352,6 +327,15 @@ def calibrate(a, r, fmt, settings):
         k = min(max(k_probe, K0_RANGE[0]), K0_RANGE[1])
         settings["k0_m"] = {"value": k, "why": f"K_w at the end of the first pass ({k_probe:.3g} m; started at 3e-4), "
                                                f"within {K0_RANGE[0]:g}-{K0_RANGE[1]:g} m"}
+    sig, n = choose.residual_sigma(os.path.join(r.path("pass1"), "innovations.csv"))
+    tracked1 = not probe.get("tracking", {}).get("lost", False)
+    if a.range_sigma:
+        settings["range_sigma_m"] = {"value": a.range_sigma, "why": "given (--range-sigma)"}
+    elif sig is None and tracked1:
+        raise StepError(f"the first pass predicted only {n} beams against the map: no range sigma can be measured "
+                        f"(is the map the log's building?)")
+    else:
+        settings["range_sigma_m"] = choose_range_sigma(r, mp, settings, sig or 0.0, n, tracked1 and sig is not None)
     settings["gate_nis"] = {"value": 25, "why": "the default: 5 sigma, a beam's innovation past it is not fused"}
     # 4. tracking over the whole log
     full = r.replay("tracking", log, mp, "track", settings)
@@ -393,6 +377,7 @@ def calibrate(a, r, fmt, settings):
               "calibration": {"constants": c, "sigma": s, "K_w": kw, "quarters": quarters,
                               "nominal": {"delta_R": 1.0, "delta_L": 1.0, "delta_d": 1.0}},
               "rpe_5m_second_half": rpe, "growth": growth,
+              "encoder_rejections": full.get("encoder_rejections"),
               "raw_odometry_share": raw_share, "settings": settings}
     ok, why = trust(result, quarters, raw_share)
     result["calibration"]["trusted"] = ok
@@ -410,10 +395,38 @@ def calibrate(a, r, fmt, settings):
             "verdict": d.get("verdict"),
             "named": [{"effect": e["effect"], "estimate": e.get("estimate"), "sigma": e.get("sigma"),
                        "parameters": e.get("parameters")} for e in d.get("ranking", []) if e.get("significant")],
-            "map_regions": [{k: g.get(k) for k in ("x", "y", "extent_m", "sign", "beams", "scans")}
-                            for g in mm.get("regions", [])],
+            "map_regions": [{**{k: g.get(k) for k in ("x", "y", "extent_m", "sign", "beams", "scans")},
+                             "kind": (g.get("history") or {}).get("kind")} for g in mm.get("regions", [])],
             "report": "report/report.html"}
     return result
+
+
+def choose_range_sigma(r, mp, settings, sig, n, first_pass_tracked):
+    """The range sigma: candidates tracked over the first half until their first loss, the
+    best fitting track's kept (choose.best); its value and why, with every candidate."""
+    tried = []
+    for i, v in enumerate(choose.candidates(sig, first_pass_tracked)):
+        trial = dict(settings, range_sigma_m={"value": v})
+        rep = r.replay(f"range sigma {v:.3f}", r.path("first.odolog"), mp, f"sigma{i}", trial, stop_when_lost=True)
+        tried.append((v, choose.track_quality(r.path(f"sigma{i}"), rep)))
+    kept = choose.best(tried)
+    if kept is None:
+        raise StepError("no candidate range sigma gave a track with a scan fit (tracking.csv empty)")
+    listing = "; ".join(f"{v:.3f} m: mean fit {q['fit_mean']:.3f}" + (", lost" if q["lost"] else "") +
+                        (f", {q['lost_episodes']} loss(es)" if q["lost_episodes"] else "")
+                        for v, q in tried if q["fit_mean"] is not None)
+    source = (f"{', '.join(f'{m:g}' for m in choose.SIGMA_LADDER)} x the laser-to-map residual sigma "
+              f"({sig:.3f} m: 1.4826 x the median absolute residual within {choose.RESIDUAL_BAND:g} m of {n} beams "
+              f"in a first pass over the first half), within {choose.SIGMA_RANGE[0]}-{choose.SIGMA_RANGE[1]} m"
+              if first_pass_tracked else
+              f"{', '.join(f'{v:g}' for v in choose.SIGMA_SPAN)} m (the first pass lost the robot: its residuals "
+              f"measure the loss, not the laser)")
+    return {"value": kept[0],
+            "why": f"of {source}, each tracked over the first half until its first loss, the one whose track "
+                   f"fits the map best (never lost; the highest mean scan fit, within {choose.FIT_TIE} of it the "
+                   f"smaller sigma; every one lost: the one that kept the track longest): {listing}",
+            "residual_sigma_m": sig,
+            "candidates": [{"value": v, **q} for v, q in tried]}
 
 
 def pick(r):
@@ -433,6 +446,12 @@ def summary(res, where):
     if rmse is not None:
         print(f"  pose RMSE at the {t['truth_records']} reference poses: {rmse:.3f} m, "
               f"heading {t['heading_rmse_at_truth_rad']:.4f} rad")
+    rej = res.get("encoder_rejections") or {}
+    if rej.get("count"):
+        r0 = rej["first"][0]
+        print(f"  {rej['count']} encoder increment(s) rejected as impossible for the drive, left out (the first at "
+              f"line {r0['line']}, t={r0['t']:.2f} s, channel {r0['channel']}: {r0['ticks']:.0f} ticks, at most "
+              f"{r0['limit_ticks']:.0f})")
     cc = cal["constants"]
     print("calibration (first half): " + ", ".join(f"{k} {cc[k]:.5f} +- {cal['sigma'][k]:.2g}" for k in cc) +
           f", K_w {cal['K_w']:.3g} m")
@@ -445,8 +464,12 @@ def summary(res, where):
     if "diagnose" in res:
         dg = res["diagnose"]
         named = ", ".join(e["effect"] for e in dg["named"]) or "no effect named"
+        kinds = {}
+        for g in dg["map_regions"]:
+            kinds[g.get("kind") or "?"] = kinds.get(g.get("kind") or "?", 0) + 1
+        kt = f" ({', '.join(f'{n} {k}' for k, n in kinds.items())})" if kinds else ""
         print(f"diagnosis (first half): {dg['verdict']}; {named}; {len(dg['map_regions'])} map region(s) where the "
-              f"map disagrees; the page: {os.path.join(os.path.dirname(where), 'report', 'report.html')}")
+              f"map disagrees{kt}; the page: {os.path.join(os.path.dirname(where), 'report', 'report.html')}")
     print(f"wrote {where} ({res['seconds']:.0f} s)")
 
 

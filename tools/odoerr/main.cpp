@@ -199,6 +199,10 @@ int main(int argc, char** argv) {
   replay->add_flag("--relocalise", rp_reloc,
                    "check every scan's fit to the map, declare a lost track and find the robot again "
                    "(tracking.csv, replay.json 'tracking'; docs/calibrate.md, \"Lost and found\")");
+  bool rp_stop_lost = false;
+  replay->add_flag("--stop-when-lost", rp_stop_lost,
+                   "with --relocalise: a declared loss ends the replay (no search; to score settings by "
+                   "whether they keep the track)");
 
   registerCommands(app, commands);
 
@@ -227,6 +231,11 @@ int main(int argc, char** argv) {
     ro.beams_used = rp_beams;
     ro.map_cell_m = rp_map_cell;
     ro.relocalise = rp_reloc;
+    ro.stop_when_lost = rp_stop_lost;
+    if (rp_stop_lost && !rp_reloc) {
+      std::fprintf(stderr, "odoerr replay: --stop-when-lost needs --relocalise (it ends the replay at a declared loss)\n");
+      return 2;
+    }
     if (!cli::applyK0(rp_tuning, log.drive, &ro.k0_w, &ro.k0_rho, &ro.k0_theta, &err)) {
       std::fprintf(stderr, "odoerr replay: %s\n", err.c_str());
       return 1;

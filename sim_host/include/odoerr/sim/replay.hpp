@@ -32,6 +32,9 @@ struct ReplayOptions {
   /// Lost-track detection and relocalisation against the map at every scan
   /// (relocalise.hpp; docs/calibrate.md, "Lost and found"); writes tracking.csv.
   bool relocalise = false;
+  /// With relocalise: a declared loss ends the replay (lost at the end, no search), for
+  /// scoring settings by whether they keep the track at all (odoerr calibrate's range sigma).
+  bool stop_when_lost = false;
 };
 
 /// A stretch where the track was lost: from the scan that declared it to the scan that
@@ -65,6 +68,7 @@ struct ReplaySummary {
   double fit_median = -1;
   std::vector<LostEpisode> episodes;
   bool lost_at_end = false;
+  bool stopped_when_lost = false;  ///< ReplayOptions::stop_when_lost ended the replay
 };
 
 /// Replays `log`; false with *error naming the problem (unsupported map size, no init...).
