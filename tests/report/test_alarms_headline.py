@@ -179,6 +179,15 @@ def test_headline():
     e["verdict"] = "consistent"
     h = plain(headline_html(e))
     check("headline: consistent and nothing found", h.startswith("The model explains this log: "), h)
+    e["verdict_caveats"] = ["1 encoder increment rejected as impossible for the drive (the first at x.odolog:12)"]
+    h = plain(headline_html(e))
+    check("headline: a caveat closes it", h.startswith("The model explains this log: ") and
+          h.endswith("But: 1 encoder increment rejected as impossible for the drive (the first at x.odolog:12)."), h)
+    n = {"verdict": "insufficient data", "verdict_missing": ["0 beams of 1200 scans were predicted against the map"],
+         "ranking": [], "map_misfit": {"regions": []}, "unexplained": {"features": []}, "change_points": []}
+    h = plain(headline_html(n))
+    check("headline: no verdict: what was missing, and nothing found or not found",
+          h == "No verdict: insufficient data. 0 beams of 1200 scans were predicted against the map.", h)
 
 
 if __name__ == "__main__":

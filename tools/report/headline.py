@@ -67,7 +67,14 @@ def headline(d):
 
 
 def headline_html(d):
-    """The headline paragraph (id 'headline')."""
+    """The headline paragraph (id 'headline'). With no verdict (insufficient data) it says
+    what was missing and nothing else; what the verdict rests on that the reader must know
+    (diagnose's verdict_caveats: encoder increments rejected) closes it."""
+    caveats = [c for c in d.get("verdict_caveats") or [] if isinstance(c, str)]
+    but = f" <b>But:</b> {E('; '.join(caveats))}." if caveats else ""
+    if d.get("verdict") == "insufficient data":
+        miss = "; ".join(m for m in d.get("verdict_missing") or [] if isinstance(m, str)) or "no test had data"
+        return f"<p class='headline' id='headline'><b>No verdict: insufficient data.</b> {E(miss)}.{but}</p>"
     found, missing = headline(d)
     s = []
     if found:
@@ -78,4 +85,4 @@ def headline_html(d):
     elif missing:
         lead = "The model explains this log" if d.get("verdict") == "consistent" else "<b>Nothing specific found</b>"
         s.append(f"{lead}: {E(_join([t for _, t in missing]))}.")
-    return f"<p class='headline' id='headline'>{' '.join(s)}</p>" if s else ""
+    return f"<p class='headline' id='headline'>{' '.join(s)}{but}</p>" if s or but else ""

@@ -64,6 +64,8 @@ def build(args):
                         "is missing from the odometry or laser model, or the map is not the building. The "
                         "sections below say where: the effect ranking, the map errors, what discovery finds "
                         "left unexplained.",
+        "insufficient data": "No verdict: the statistical tests had too little data (the headline says what was "
+                             "missing). Nothing below is evidence either way.",
     }.get(verdict, "")
     dist_total = float(np.nanmax(scans["dist_m"])) if len(scans["dist_m"]) and np.isfinite(scans["dist_m"]).any() else None
     n_used = int((beams["status"] == "used").sum())
