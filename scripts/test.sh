@@ -7,7 +7,7 @@
 # host suite includes the float32 soak (label soak, 10^6 cycles per drive, about 15 s) and
 # the firmware fault table (test_firmware_faults).
 # Usage: scripts/test.sh [--quick]   (--quick leaves out the statistical diagnose tests
-#                                      over many seeds, label diagnose-stats, about 10 minutes;
+#                                      over many seeds, label diagnose-stats, 392 s of test time at commit 88d4f50;
 #                                      CI and the plain command run them)
 set -euo pipefail
 mode="${1:-}"
