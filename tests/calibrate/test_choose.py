@@ -49,15 +49,15 @@ def main():
         # residual sigma: only used or gated beams within 1 m count; fewer than 100: none
         inn = os.path.join(d, "innovations.csv")
         with open(inn, "w") as f:
-            f.write("t,beam,status,z,zhat,innov\n")
+            f.write("t,beam,status,measured,predicted,innovation,variance,nis\n")
             for i in range(150):
-                f.write(f"0,{i},used,1,1,{0.01 * (1 if i % 2 else -1) * (1 + i % 3)}\n")
-            f.write("0,0,used,1,1,5.0\n0,0,skipped,1,1,0.5\n0,0,gated,1,1,\n")
+                f.write(f"0,{i},used,1,1,{0.01 * (1 if i % 2 else -1) * (1 + i % 3)},0.001,1\n")
+            f.write("0,0,used,1,1,5.0,0.001,1\n0,0,skipped,1,1,0.5,0.001,1\n0,0,gated,1,1,,,\n")
         sig, n = choose.residual_sigma(inn)
         check("residual sigma: the beams counted", n, 150)
         check("residual sigma: 1.4826 x the median |innovation|", sig, 1.4826 * 0.02)
         with open(inn, "w") as f:
-            f.write("t,beam,status,z,zhat,innov\n" + "0,0,used,1,1,0.01\n" * 99)
+            f.write("t,beam,status,measured,predicted,innovation,variance,nis\n" + "0,0,used,1,1,0.01,0.001,1\n" * 99)
         check("residual sigma from 99 beams: none", choose.residual_sigma(inn), (None, 99))
         # track quality: the mean of the finite fits; lost and its episodes from replay.json
         with open(os.path.join(d, "tracking.csv"), "w") as f:

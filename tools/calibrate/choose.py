@@ -26,15 +26,13 @@ def residual_sigma(innovations_csv):
     within RESIDUAL_BAND of the map (a beam farther off hit something the map lacks, or the
     track was off: it says nothing of the range noise), and how many."""
     vals = []
-    with open(innovations_csv) as f:
-        next(f)
-        for line in f:
-            p = line.rstrip("\r\n").split(",")
-            if len(p) <= 5 or p[2] not in ("used", "gated"):
+    with open(innovations_csv, newline="") as f:
+        for row in csv.DictReader(f):  # replay's innovations.csv: t,beam,status,...,innovation,...
+            if row.get("status") not in ("used", "gated"):
                 continue
             try:
-                v = abs(float(p[5]))
-            except ValueError:  # a beam without a prediction: nothing to measure
+                v = abs(float(row["innovation"]))
+            except (KeyError, TypeError, ValueError):  # a beam without a prediction: nothing to measure
                 continue
             if v < RESIDUAL_BAND:
                 vals.append(v)

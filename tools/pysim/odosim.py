@@ -541,7 +541,7 @@ def parse_map_errors(specs, parser, path=None):
             if not (inside(x1, y1) and inside(x2, y2)):
                 parser.error(f"--map-error {spec!r}: the phantom wall must lie inside the room")
         elif kind in world_events.KINDS:
-            values = world_events.check(kind, values, spec, parser.error, inside, path)
+            values = world_events.check(kind, values, spec, parser.error, inside, path, segment_distance)
         else:
             i, d = values
             if i != int(i) or not 0 <= int(i) < len(WALLS):
@@ -1005,7 +1005,7 @@ def simulate_scans(truth, n_steps, effects, rng_scan, map_errors=None, seen=None
 
     world = np.concatenate([true_walls(effects), object_walls(map_errors)])
     r_true, cos_inc = cast_rays(ox, oy, ang, world, incidence=True)
-    r_true, changed = world_events.apply(r_true, t_scan, ox, oy, ang, map_errors, cast_rays)
+    r_true, changed = world_events.apply(r_true, t_scan, ox, oy, ang, map_errors, cast_rays, box_walls)
     if seen is not None and map_errors:
         seen.extend(map_error_visibility(ox, oy, ang, r_true, map_errors))
         ok = np.isfinite(r_true) & (r_true <= RANGE_MAX)

@@ -26,8 +26,9 @@ WALKER_SIZE = 0.4     # m, the person's box
 WALKER_CLEARANCE = 0.5  # m, least distance of the walker's line from the robot's path
 
 
-def check(kind, values, spec, error, inside, path=None):
-    """The values of one event, checked (error(msg) exits)."""
+def check(kind, values, spec, error, inside, path=None, distance=None):
+    """The values of one event, checked (error(msg) exits). With a path, distance(px, py, seg)
+    (odosim's segment_distance) keeps a walker's line clear of it."""
     x1, y1, x2, y2, v = values
     if np.hypot(x2 - x1, y2 - y1) <= 1e-6:
         error(f"--map-error {spec!r}: the {kind}'s segment has zero length")
@@ -39,18 +40,11 @@ def check(kind, values, spec, error, inside, path=None):
         if not v > 0:
             error(f"--map-error {spec!r}: the speed must be > 0 m/s")
         if path is not None:
-            d = segment_points_distance(path.x_grid, path.y_grid, (x1, y1, x2, y2)).min()
+            d = distance(path.x_grid, path.y_grid, (x1, y1, x2, y2)).min()
             if d < WALKER_CLEARANCE + WALKER_SIZE / 2:
                 error(f"--map-error {spec!r}: the walker's line is {d:.2f} m from the robot's path "
                       f"(it needs >= {WALKER_CLEARANCE + WALKER_SIZE / 2:g} m)")
     return list(values)
-
-
-def segment_points_distance(px, py, seg):
-    x1, y1, x2, y2 = seg
-    ex, ey = x2 - x1, y2 - y1
-    u = np.clip(((px - x1) * ex + (py - y1) * ey) / (ex * ex + ey * ey), 0.0, 1.0)
-    return np.hypot(px - x1 - u * ex, py - y1 - u * ey)
 
 
 def map_walls(events):
@@ -68,10 +62,10 @@ def walker_position(w, t):
     return x1 + u * (x2 - x1), y1 + u * (y2 - y1)
 
 
-def apply(r, t_scan, ox, oy, ang, events, cast_rays):
+def apply(r, t_scan, ox, oy, ang, events, cast_rays, box_walls):
     """The true ranges r (S, B) with the events: a closed door shortens the beams it meets
-    before its t_open; a walker shortens those it meets where it is at each scan. Returns
-    (ranges, {(kind, index): mask of the beams changed})."""
+    before its t_open; a walker shortens those it meets where it is at each scan. cast_rays
+    and box_walls are odosim's. Returns (ranges, {(kind, index): mask of the beams changed})."""
     changed = {}
     for i, d in enumerate((events or {}).get("door", [])):
         r_d = cast_rays(ox, oy, ang, np.array([d[:4]], dtype=float))
@@ -80,12 +74,10 @@ def apply(r, t_scan, ox, oy, ang, events, cast_rays):
         changed[("door", i)] = hit
     for i, w in enumerate((events or {}).get("walker", [])):
         cx, cy = walker_position(w, t_scan)
-        h = WALKER_SIZE / 2
         hit = np.zeros(r.shape, dtype=bool)
         out = r.copy()
         for k in range(len(t_scan)):
-            x0, x1, y0, y1 = cx[k] - h, cx[k] + h, cy[k] - h, cy[k] + h
-            box = np.array([[x0, y0, x1, y0], [x1, y0, x1, y1], [x1, y1, x0, y1], [x0, y1, x0, y0]])
+            box = np.array(box_walls(cx[k], cy[k], WALKER_SIZE, WALKER_SIZE), dtype=float)
             r_w = cast_rays(ox[k:k + 1], oy[k:k + 1], ang[k:k + 1], box)[0]
             m = r_w < out[k]
             out[k] = np.where(m, r_w, out[k])
