@@ -58,10 +58,22 @@ bool simBound(const SimConfig& cfg, std::uint64_t seed, const FilterSetup& setup
   }
   out->source = "sim";
   out->drive = PaperSim<D>::kSync ? "sync" : "diff";
-  return bound_detail::runBound(pb, sim.map(), laser, path, opt, out, error);
+  return bound_detail::runBound(pb, bound_detail::beamPredictor<ModelT>(sim.map(), laser, pb.min_cos_incidence),
+                                laser.config().sigma, path, opt, out, error);
 }
 
 }  // namespace
+
+// The recursion of both drives, for the simulated drive here and the logged one
+// (bound_log.cpp).
+namespace bound_detail {
+template bool runBound<Model<SyncDrive<double>>>(const Problem<Model<SyncDrive<double>>>&, const BeamPredictor&, double,
+                                                 const std::vector<PathCycle<SyncDrive<double>::Input>>&,
+                                                 const BoundOptions&, BoundResult*, std::string*);
+template bool runBound<Model<DiffDrive<double>>>(const Problem<Model<DiffDrive<double>>>&, const BeamPredictor&, double,
+                                                 const std::vector<PathCycle<DiffDrive<double>::Input>>&,
+                                                 const BoundOptions&, BoundResult*, std::string*);
+}  // namespace bound_detail
 
 bool boundOfSimulatedDrive(DriveKind drive, const SimConfig& cfg, std::uint64_t seed, const FilterSetup& setup,
                            const BoundOptions& opt, BoundResult* out, std::string* error) {

@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -43,9 +44,27 @@ struct Problem {
   double min_cos_incidence = 0;
 };
 
-/// The recursion over `path`. MapT: anything Akf::expectedRange casts against.
+/// One beam's expected range from a laser at pose (x, y, heading with cosine c and sine s)
+/// and its Jacobian in the pose: Akf::expectedRange on the caller's map and laser. Anything
+/// but Status::kOk: the beam cannot be predicted there (it is skipped).
+using BeamPredictor =
+    std::function<Status(double x, double y, double c, double s, int beam, double* range, Eigen::Matrix<double, 1, 3>* h)>;
+
+/// The predictor of a map (anything Akf::expectedRange casts against) and a laser; both must
+/// outlive it.
 template <typename ModelT, typename MapT, int MaxBeams>
-bool runBound(const Problem<ModelT>& pb, const MapT& map, const LaserGeometry<double, MaxBeams>& laser,
+BeamPredictor beamPredictor(const MapT& map, const LaserGeometry<double, MaxBeams>& laser, double min_cos_incidence) {
+  return [&map, &laser, min_cos_incidence](double x, double y, double c, double s, int beam, double* range,
+                                           Eigen::Matrix<double, 1, 3>* h) {
+    return Akf<ModelT>::expectedRange(map, laser, x, y, c, s, beam, min_cos_incidence, range, h);
+  };
+}
+
+/// The recursion over `path`, the beams predicted by `predict` with range sigma `range_sigma`.
+/// Not templated on the map: bound.cpp instantiates it once per drive for the simulated
+/// and the logged drive alike.
+template <typename ModelT>
+bool runBound(const Problem<ModelT>& pb, const BeamPredictor& predict, double range_sigma,
               const std::vector<PathCycle<typename ModelT::Input>>& path, const BoundOptions& opt, BoundResult* out,
               std::string* error) {
   using Drive = typename ModelT::Drive;
@@ -58,7 +77,7 @@ bool runBound(const Problem<ModelT>& pb, const MapT& map, const LaserGeometry<do
   using JointMat = Eigen::Matrix<double, NJ, NJ>;
   using KMat = Eigen::Matrix<double, M, M>;
 
-  const double r = laser.config().sigma * laser.config().sigma;
+  const double r = range_sigma * range_sigma;
   // The prior, its systematic block scaled by opt.systematic_prior_scale (1: the filter's).
   StateMat p0 = pb.p0;
   {
@@ -218,8 +237,7 @@ bool runBound(const Problem<ModelT>& pb, const MapT& map, const LaserGeometry<do
     for (int beam : cy.beams) {
       double range = 0;
       Eigen::Matrix<double, 1, 3> h3;
-      if (AkfT::expectedRange(map, laser, cy.after.x, cy.after.y, cth, sth, beam, pb.min_cos_incidence, &range,
-                              &h3) != Status::kOk) {
+      if (predict(cy.after.x, cy.after.y, cth, sth, beam, &range, &h3) != Status::kOk) {
         ++out->beams_skipped;
         continue;
       }
@@ -324,5 +342,11 @@ typename ModelT::StateMat priorCovariance(const FilterSetup& setup, double sxy_x
   return sig.cwiseAbs2().asDiagonal();
 }
 
+extern template bool runBound<Model<SyncDrive<double>>>(const Problem<Model<SyncDrive<double>>>&, const BeamPredictor&,
+                                                        double, const std::vector<PathCycle<SyncDrive<double>::Input>>&,
+                                                        const BoundOptions&, BoundResult*, std::string*);
+extern template bool runBound<Model<DiffDrive<double>>>(const Problem<Model<DiffDrive<double>>>&, const BeamPredictor&,
+                                                        double, const std::vector<PathCycle<DiffDrive<double>::Input>>&,
+                                                        const BoundOptions&, BoundResult*, std::string*);
 
 }  // namespace odoerr::sim::bound_detail

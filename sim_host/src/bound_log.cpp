@@ -127,7 +127,9 @@ bool logBound(const Odolog& log, const std::vector<std::pair<std::string, double
   }
   out->source = log.path;
   out->drive = log.drive;
-  return bound_detail::runBound(pb, map.view(), laser, path, opt, out, error);
+  const auto view = map.view();
+  return bound_detail::runBound(pb, bound_detail::beamPredictor<ModelT>(view, laser, pb.min_cos_incidence),
+                                laser.config().sigma, path, opt, out, error);
 }
 
 }  // namespace
