@@ -53,9 +53,27 @@ TEST(DiagnosePoseFix, ChiSquareQuantileMatchesMonteCarlo) {
   for (const auto& r : f) nis.push_back(r.nis);
   std::sort(nis.begin(), nis.end());
   const double q025 = nis[nis.size() * 25 / 1000], q975 = nis[nis.size() * 975 / 1000];
-  EXPECT_NEAR(q025, chiSquareQuantileExact(0.025, 3), 0.01);  // 0.2158
-  EXPECT_NEAR(q975, chiSquareQuantileExact(0.975, 3), 0.08);  // 9.348
-  EXPECT_NEAR(chiSquareQuantileExact(0.975, 3), 9.3484, 1e-3);
+  EXPECT_NEAR(q025, chiSquareQuantile(0.025, 3), 0.01);  // 0.2158
+  EXPECT_NEAR(q975, chiSquareQuantile(0.975, 3), 0.08);  // 9.348
+  EXPECT_NEAR(chiSquareQuantile(0.975, 3), 9.3484, 1e-3);
+}
+
+TEST(DiagnoseStats, ChiSquareSurvivalAndBandMatchReferenceValues) {
+  // Reference values from scipy.stats.chi2 (sf, ppf), an implementation independent of Boost.
+  EXPECT_NEAR(chiSquareSf(3.841458820694124, 1), 0.05, 1e-12);
+  EXPECT_NEAR(chiSquareSf(0.5, 3), 0.9188914116546758, 1e-12);
+  EXPECT_NEAR(chiSquareSf(40, 20), 0.0049954123083075785, 1e-14);
+  EXPECT_NEAR(chiSquareSf(1e-3, 2), 0.9995001249791693, 1e-12);
+  EXPECT_NEAR(chiSquareSf(120, 60) / 6.876264968732136e-06, 1.0, 1e-9);
+  EXPECT_EQ(chiSquareSf(0, 4), 1.0);
+  EXPECT_EQ(chiSquareSf(-1, 4), 1.0);
+  ChiSquareBand95 band;
+  const auto b30 = band(30), b1 = band(1);
+  EXPECT_NEAR(b30[0], 16.79077226556663, 1e-9);
+  EXPECT_NEAR(b30[1], 46.97924224367115, 1e-9);
+  EXPECT_NEAR(b1[0], 0.0009820691171752555, 1e-12);
+  EXPECT_NEAR(b1[1], 5.023886187314888, 1e-9);
+  EXPECT_EQ(band(30), b30);  // the cached value is the value
 }
 
 TEST(DiagnosePoseFix, MeanNisBandCoversConsistentRunsAtItsLevel) {

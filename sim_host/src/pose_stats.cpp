@@ -10,18 +10,11 @@
 #include <cmath>
 #include <cstdio>
 
-#include <boost/math/distributions/chi_squared.hpp>
-
 #include "odoerr/sim/stats.hpp"
 
 namespace odoerr::sim {
 
 using json = nlohmann::ordered_json;
-
-double chiSquareQuantileExact(double p, double k) {
-  const boost::math::chi_squared_distribution<double> d(k);
-  return boost::math::quantile(d, p);
-}
 
 namespace {
 
@@ -106,13 +99,13 @@ json poseFixTests(const std::vector<PoseFixRec>& fixes, bool* consistent) {
   // --- mean NIS: the sum of n independent 3-dof NIS is chi-square with 3n dof.
   double sum = 0;
   int outside = 0;
-  const double lo1 = chiSquareQuantileExact(0.025, 3), hi1 = chiSquareQuantileExact(0.975, 3);
+  const double lo1 = chiSquareQuantile(0.025, 3), hi1 = chiSquareQuantile(0.975, 3);
   for (const PoseFixRec& f : fixes) {
     sum += f.nis;
     if (f.nis < lo1 || f.nis > hi1) ++outside;
   }
   const double nm = sum / n;
-  const double lo = chiSquareQuantileExact(0.025, 3.0 * n) / n, hi = chiSquareQuantileExact(0.975, 3.0 * n) / n;
+  const double lo = chiSquareQuantile(0.025, 3.0 * n) / n, hi = chiSquareQuantile(0.975, 3.0 * n) / n;
   t["nis_mean"] = nm;
   t["nis_expected"] = 3;
   t["nis_band"] = {lo, hi};
@@ -121,7 +114,7 @@ json poseFixTests(const std::vector<PoseFixRec>& fixes, bool* consistent) {
   t["fixes_outside_band_frac"] = double(outside) / n;
   // --- windowed NIS: windows of kWindow fixes against chi-square(3 kWindow).
   int w_n = 0, w_out = 0;
-  const double wlo = chiSquareQuantileExact(0.025, 3.0 * kWindow), whi = chiSquareQuantileExact(0.975, 3.0 * kWindow);
+  const double wlo = chiSquareQuantile(0.025, 3.0 * kWindow), whi = chiSquareQuantile(0.975, 3.0 * kWindow);
   for (int i = 0; i + kWindow <= n; i += kWindow) {
     double s = 0;
     for (int j = i; j < i + kWindow; ++j) s += fixes[static_cast<std::size_t>(j)].nis;

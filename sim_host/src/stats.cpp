@@ -8,6 +8,8 @@
 #include <filesystem>
 #include <fstream>
 
+#include <boost/math/distributions/chi_squared.hpp>
+
 namespace odoerr::sim {
 
 using json = nlohmann::ordered_json;
@@ -28,36 +30,6 @@ const char* statusName(Status s) {
 }
 
 namespace {
-
-/// Regularised lower incomplete gamma P(a, x) by its series (x < a + 1).
-double gammaPSeries(double a, double x) {
-  double term = 1.0 / a, sum = term;
-  for (int n = 1; n < 1000; ++n) {
-    term *= x / (a + n);
-    sum += term;
-    if (std::abs(term) < std::abs(sum) * 1e-15) break;
-  }
-  return sum * std::exp(-x + a * std::log(x) - std::lgamma(a));
-}
-/// Regularised upper incomplete gamma Q(a, x) by its continued fraction (x >= a + 1),
-/// evaluated with the modified Lentz method.
-double gammaQFraction(double a, double x) {
-  const double tiny = 1e-300;
-  double b = x + 1 - a, c = 1 / tiny, d = 1 / b, h = d;
-  for (int i = 1; i < 1000; ++i) {
-    const double an = -i * (i - a);
-    b += 2;
-    d = an * d + b;
-    if (std::abs(d) < tiny) d = tiny;
-    c = b + an / c;
-    if (std::abs(c) < tiny) c = tiny;
-    d = 1 / d;
-    const double del = d * c;
-    h *= del;
-    if (std::abs(del - 1) < 1e-15) break;
-  }
-  return std::exp(-x + a * std::log(x) - std::lgamma(a)) * h;
-}
 
 // The laser statistics report 0 for an empty mean or t (their callers guard what matters).
 double orZero(const std::optional<double>& v) { return v.value_or(0.0); }
@@ -108,21 +80,22 @@ json ljungBox(const std::vector<double>& series) {
 
 double chiSquareSf(double x, double k) {
   if (!(x > 0)) return 1.0;
-  const double a = 0.5 * k, h = 0.5 * x;
-  return h < a + 1 ? 1.0 - gammaPSeries(a, h) : gammaQFraction(a, h);
+  const boost::math::chi_squared_distribution<double> d(k);
+  return boost::math::cdf(boost::math::complement(d, x));
 }
 
 double chiSquareQuantile(double p, double k) {
-  // inverse normal by Acklam-free bisection on erfc (p in (0, 1))
-  double lo = -10, hi = 10;
-  for (int i = 0; i < 100; ++i) {
-    const double mid = 0.5 * (lo + hi);
-    (0.5 * std::erfc(-mid / std::sqrt(2.0)) < p ? lo : hi) = mid;
-  }
-  const double z = 0.5 * (lo + hi);
-  const double c = 2.0 / (9.0 * k);
-  const double w = 1 - c + z * std::sqrt(c);
-  return k * w * w * w;
+  const boost::math::chi_squared_distribution<double> d(k);
+  return boost::math::quantile(d, p);
+}
+
+ChiSquareBand95::ChiSquareBand95() = default;
+
+std::array<double, 2> ChiSquareBand95::operator()(int dof) {
+  auto it = cache_.find(dof);
+  if (it == cache_.end())
+    it = cache_.emplace(dof, std::array<double, 2>{chiSquareQuantile(0.025, dof), chiSquareQuantile(0.975, dof)}).first;
+  return it->second;
 }
 
 DriveStats computeStats(const std::vector<ScanRec>& scans, const std::vector<BeamRec>& beams,
@@ -146,10 +119,12 @@ DriveStats computeStats(const std::vector<ScanRec>& scans, const std::vector<Bea
   t["beams_gated"] = std::count_if(beams.begin(), beams.end(), [](const BeamRec& b) { return b.status == Status::kGated; });
   // --- per-scan NIS against the 95 % band of its dof.
   int outside = 0, counted = 0;
+  ChiSquareBand95 band;
   for (const ScanRec& r : scans) {
     if (r.dof < 1) continue;
     ++counted;
-    if (r.nis_sum < chiSquareQuantile(0.025, r.dof) || r.nis_sum > chiSquareQuantile(0.975, r.dof)) ++outside;
+    const auto b = band(r.dof);
+    if (r.nis_sum < b[0] || r.nis_sum > b[1]) ++outside;
   }
   t["scans"] = counted;
   t["scans_outside_band_frac"] = counted > 0 ? double(outside) / counted : 0.0;
@@ -165,7 +140,8 @@ DriveStats computeStats(const std::vector<ScanRec>& scans, const std::vector<Bea
     }
     if (d < 1) continue;
     ++w_n;
-    if (s < chiSquareQuantile(0.025, d) || s > chiSquareQuantile(0.975, d)) ++w_out;
+    const auto b = band(d);
+    if (s < b[0] || s > b[1]) ++w_out;
   }
   t["windowed_nis_scans"] = 10;
   t["windowed_nis_outside_frac"] = w_n > 0 ? double(w_out) / w_n : 0.0;
@@ -332,8 +308,10 @@ bool writeDiagnoseCsv(const std::string& dir, const std::vector<ScanRec>& scans,
   }
   char buf[256];
   fs_scans << "t,dist_m,x,y,theta,dof,nis_sum,band_lo,band_hi,along_m,cross_m,heading_rad\n";
+  ChiSquareBand95 band;
   for (const ScanRec& r : scans) {
-    const double lo = r.dof > 0 ? chiSquareQuantile(0.025, r.dof) : 0, hi = r.dof > 0 ? chiSquareQuantile(0.975, r.dof) : 0;
+    const std::array<double, 2> b = r.dof > 0 ? band(r.dof) : std::array<double, 2>{0, 0};
+    const double lo = b[0], hi = b[1];
     const double dx = r.x1 - r.x, dy = r.y1 - r.y, c = std::cos(r.th), s = std::sin(r.th);
     std::snprintf(buf, sizeof buf, "%.3f,%.3f,%.4f,%.4f,%.5f,%d,%.3f,%.3f,%.3f,%.6f,%.6f,%.7f\n", r.t, r.dist, r.x,
                   r.y, r.th, r.dof, r.nis_sum, lo, hi, c * dx + s * dy, -s * dx + c * dy, wrapAngle(r.th1 - r.th));

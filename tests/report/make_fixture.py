@@ -27,6 +27,7 @@ import os
 import sys
 
 import numpy as np
+import scipy.stats
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from fixture_discovery import add_discovery, add_tests_extras  # noqa: E402
@@ -64,13 +65,10 @@ SCAN_EVERY_M = 0.05
 SPEED = 0.5              # m/s nominal
 
 
-def chi2_band(dof, z=1.959964):
-    """Wilson-Hilferty 95 % band of a chi-square with dof degrees of freedom."""
+def chi2_band(dof):
+    """The central 95 % band of a chi-square with dof degrees of freedom (as odoerr writes it)."""
     dof = np.maximum(np.asarray(dof, float), 1.0)
-    a = 2.0 / (9.0 * dof)
-    lo = dof * np.maximum(1.0 - a - z * np.sqrt(a), 0.0) ** 3
-    hi = dof * (1.0 - a + z * np.sqrt(a)) ** 3
-    return lo, hi
+    return scipy.stats.chi2.ppf(0.025, dof), scipy.stats.chi2.ppf(0.975, dof)
 
 
 def figure_eight(n_laps):

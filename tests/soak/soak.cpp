@@ -2,6 +2,7 @@
 #include "soak.hpp"
 
 #include <Eigen/Eigenvalues>
+#include <boost/math/distributions/chi_squared.hpp>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -14,42 +15,10 @@
 namespace odoerr::soak {
 namespace {
 
-/// Regularised lower incomplete gamma P(a, x) (series below a + 1, else continued fraction).
-double gammaP(double a, double x) {
-  if (x <= 0) return 0.0;
-  const double lg = std::lgamma(a);
-  if (x < a + 1) {
-    double term = 1.0 / a, sum = term;
-    for (int n = 1; n < 500 && term > sum * 1e-15; ++n) {
-      term *= x / (a + n);
-      sum += term;
-    }
-    return sum * std::exp(-x + a * std::log(x) - lg);
-  }
-  double b = x + 1 - a, c = 1e300, d = 1 / b, h = d;  // Lentz
-  for (int i = 1; i < 500; ++i) {
-    const double an = -i * (i - a);
-    b += 2;
-    d = an * d + b;
-    if (std::abs(d) < 1e-300) d = 1e-300;
-    c = b + an / c;
-    if (std::abs(c) < 1e-300) c = 1e-300;
-    d = 1 / d;
-    const double del = d * c;
-    h *= del;
-    if (std::abs(del - 1) < 1e-15) break;
-  }
-  return 1.0 - std::exp(-x + a * std::log(x) - lg) * h;
-}
-
-/// Chi-square quantile with k degrees of freedom (bisection on the CDF).
+/// Chi-square quantile with k degrees of freedom (Boost.Math).
 double chiSquareQuantile(double p, int k) {
-  double lo = 0, hi = 10.0 * k + 100;
-  for (int i = 0; i < 200; ++i) {
-    const double mid = 0.5 * (lo + hi);
-    (gammaP(0.5 * k, 0.5 * mid) < p ? lo : hi) = mid;
-  }
-  return 0.5 * (lo + hi);
+  const boost::math::chi_squared_distribution<double> d(k);
+  return boost::math::quantile(d, p);
 }
 
 template <template <typename> class DriveT>

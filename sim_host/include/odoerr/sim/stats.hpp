@@ -4,7 +4,9 @@
 // NEES, the same binned by motion and place, and CUSUM change alarms.
 #pragma once
 
+#include <array>
 #include <cmath>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -18,10 +20,20 @@ namespace odoerr::sim {
 /// The name of a beam status in the CSV outputs ("used", "gated", ...).
 const char* statusName(Status s);
 
-/// Chi-square survival function P(X > x) for k degrees of freedom.
+/// Chi-square survival function P(X > x) for k degrees of freedom (Boost.Math); 1 for x <= 0.
 double chiSquareSf(double x, double k);
-/// Chi-square quantile (Wilson-Hilferty; accurate to < 1 % for k >= 3).
+/// Chi-square quantile for k degrees of freedom, p in (0, 1) (Boost.Math, exact).
 double chiSquareQuantile(double p, double k);
+/// The central 95 % band [q(0.025), q(0.975)] of a chi-square with dof degrees of freedom
+/// (dof >= 1), computed once per dof a series asks for.
+class ChiSquareBand95 {
+ public:
+  ChiSquareBand95();
+  std::array<double, 2> operator()(int dof);
+
+ private:
+  std::map<int, std::array<double, 2>> cache_;
+};
 /// Count, sum and sum of squares of a series, for its mean, RMS and the t statistic of
 /// its mean against 0. Each is empty without the data it needs (no value for the mean and
 /// RMS, fewer than two or no spread for t): the caller says what an empty test reports.
@@ -105,9 +117,6 @@ DriveStats computeStats(const std::vector<ScanRec>& scans, const std::vector<Bea
 /// The tests of the pose fixes alone (tests.pose_fixes). Null-valued entries with a note
 /// when there are none. consistent: whether they pass (false when there are none).
 nlohmann::ordered_json poseFixTests(const std::vector<PoseFixRec>& fixes, bool* consistent);
-
-/// Exact chi-square quantile (Boost.Math) for k degrees of freedom, p in (0, 1).
-double chiSquareQuantileExact(double p, double k);
 
 /// scans.csv, beams.csv and trajectory.csv for the report. False with *error.
 bool writeDiagnoseCsv(const std::string& dir, const std::vector<ScanRec>& scans,
