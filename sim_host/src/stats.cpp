@@ -89,8 +89,6 @@ double chiSquareQuantile(double p, double k) {
   return boost::math::quantile(d, p);
 }
 
-ChiSquareBand95::ChiSquareBand95() = default;
-
 std::array<double, 2> ChiSquareBand95::operator()(int dof) {
   auto it = cache_.find(dof);
   if (it == cache_.end())

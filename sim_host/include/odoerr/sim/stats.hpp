@@ -28,7 +28,6 @@ double chiSquareQuantile(double p, double k);
 /// (dof >= 1), computed once per dof a series asks for.
 class ChiSquareBand95 {
  public:
-  ChiSquareBand95();
   std::array<double, 2> operator()(int dof);
 
  private:
