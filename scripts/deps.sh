@@ -4,7 +4,7 @@
 set -euo pipefail
 
 PACKAGES=(
-  cmake make g++            # build
+  cmake ninja-build make g++   # build (the presets use Ninja; make for a plain `cmake -B`)
   libeigen3-dev             # core
   libcli11-dev nlohmann-json3-dev   # odoerr tool
   libboost-dev              # Boost.Math (header-only): exact chi-square quantiles
