@@ -191,6 +191,37 @@ void lattice(const LikelihoodField& field, const std::vector<ScanPoint>& pts, co
   out->insert(out->end(), picked.begin(), picked.end());
 }
 
+// At most 60 of the points, spread evenly: the coarse searches' subset.
+std::vector<ScanPoint> coarseSubset(const std::vector<ScanPoint>& pts) {
+  std::vector<ScanPoint> sub;
+  const double every = pts.size() > 60 ? double(pts.size()) / 60 : 1.0;
+  for (double f = 0; f < double(pts.size()); f += every) sub.push_back(pts[std::size_t(f)]);
+  return sub;
+}
+
+// Each coarse candidate (of a 0.1 m / 0.02 rad lattice or finer) refined twice, on
+// lattices four and sixteen times finer; `extra` (the filter's own pose) joins them. The
+// best, and the best of the rest that is a distinct pose (its runner-up).
+ScanMatch refine(const LikelihoodField& field, const std::vector<ScanPoint>& pts, const std::vector<Candidate>& coarse,
+                 const Candidate* extra, double sigma) {
+  constexpr double step_xy = 0.1, step_th = 0.02;
+  std::vector<Candidate> refined;
+  for (const Candidate& c0 : coarse) {
+    std::vector<Candidate> r1;
+    lattice(field, pts, c0, 4, step_xy / 4, 4, step_th / 4, sigma, 1, &r1);
+    lattice(field, pts, r1.front(), 4, step_xy / 16, 4, step_th / 16, sigma, 1, &refined);
+  }
+  if (extra != nullptr) refined.push_back(*extra);
+  if (refined.empty()) return {};
+  const auto top = std::max_element(refined.begin(), refined.end(),
+                                    [](const Candidate& a, const Candidate& b) { return a.fit < b.fit; });
+  ScanMatch best{top->x, top->y, top->th, top->fit, 0};
+  for (const Candidate& c : refined) {
+    if (distinctPoses(c, *top)) best.runner_up = std::max(best.runner_up, c.fit);
+  }
+  return best;
+}
+
 }  // namespace
 
 ScanMatch matchScan(const LikelihoodField& field, const std::vector<ScanPoint>& pts, double x, double y,
@@ -199,29 +230,127 @@ ScanMatch matchScan(const LikelihoodField& field, const std::vector<ScanPoint>& 
   if (pts.empty() || field.empty()) return best;
   // Coarse: the whole window on a 0.1 m / 0.02 rad lattice, with at most 60 points and a
   // doubled sigma (a smoother fit, so the lattice's step does not miss the peak).
-  std::vector<ScanPoint> sub;
-  const double every = pts.size() > 60 ? double(pts.size()) / 60 : 1.0;
-  for (double f = 0; f < double(pts.size()); f += every) sub.push_back(pts[std::size_t(f)]);
+  const std::vector<ScanPoint> sub = coarseSubset(pts);
   const double step_xy = 0.1, step_th = 0.02;
   const int n_xy = std::max(0, int(std::ceil(window_m / step_xy)));
   const int n_th = std::max(0, int(std::ceil(window_rad / step_th)));
   std::vector<Candidate> coarse;
   lattice(field, sub, {x, y, theta, 0}, n_xy, step_xy, n_th, step_th, 2 * sigma, 8, &coarse);
   // Fine: each candidate refined twice, on lattices four and sixteen times finer.
-  std::vector<Candidate> refined;
-  for (const Candidate& c0 : coarse) {
-    std::vector<Candidate> r1;
-    lattice(field, pts, c0, 4, step_xy / 4, 4, step_th / 4, sigma, 1, &r1);
-    lattice(field, pts, r1.front(), 4, step_xy / 16, 4, step_th / 16, sigma, 1, &refined);
+  const Candidate here{x, y, theta, best.fit};
+  return refine(field, pts, coarse, &here, sigma);
+}
+
+// The whole map (Cartographer's branch and bound, its idea, not its code). A point's fit is
+// tabulated per field cell with the doubled sigma; level k of a pyramid holds, for each
+// cell, the largest of the 2^k x 2^k cells from it on. A robot anywhere in a block of 2^k x
+// 2^k cell centres puts each point in the 2^k x 2^k cells from the one the block's corner
+// puts it in, so the mean of the points' level-k values bounds the fit of the whole block.
+// Blocks are opened depth first from 2^L cells (about 3 m), the ones whose bound is below
+// `floor` never; each single cell reaching it is a candidate, and the best distinct
+// candidates are refined as in matchScan. A cell outside the grid is as far from a wall as
+// the field reaches (the smallest value there is); a block reaching out of the grid on the
+// low side takes the bound of the grid's first block (it holds every cell it could see).
+ScanMatch matchGlobal(const LikelihoodField& field, const std::vector<ScanPoint>& pts, double sigma, double floor,
+                      std::size_t* work) {
+  std::size_t evaluated = 0;
+  if (work != nullptr) *work = 0;
+  if (pts.empty() || field.empty()) return {};
+  const std::vector<ScanPoint> sub = coarseSubset(pts);
+  const int nx = field.nx(), ny = field.ny();
+  const double cell = field.cell();
+  const FitTable table(2 * sigma, field.maxDistance());
+  const float outside = float(table(field.maxDistance()));
+  int levels = 0;
+  while ((1 << levels) * cell < 3.0 && (1 << levels) < std::max(nx, ny)) ++levels;
+  const std::size_t n = std::size_t(nx) * std::size_t(ny);
+  std::vector<std::vector<float>> pyr(std::size_t(levels) + 1, std::vector<float>(n));
+  for (int j = 0; j < ny; ++j)
+    for (int i = 0; i < nx; ++i) pyr[0][std::size_t(j) * std::size_t(nx) + std::size_t(i)] = float(table(field.cellDistance(i, j)));
+  std::vector<float> tmp(n);
+  for (int k = 1; k <= levels; ++k) {
+    const int h = 1 << (k - 1);
+    const std::vector<float>& g = pyr[std::size_t(k - 1)];
+    for (int j = 0; j < ny; ++j)
+      for (int i = 0; i < nx; ++i) {
+        const std::size_t a = std::size_t(j) * std::size_t(nx) + std::size_t(i);
+        tmp[a] = i + h < nx ? std::max(g[a], g[a + std::size_t(h)]) : std::max(g[a], outside);
+      }
+    std::vector<float>& out = pyr[std::size_t(k)];
+    for (int j = 0; j < ny; ++j)
+      for (int i = 0; i < nx; ++i) {
+        const std::size_t a = std::size_t(j) * std::size_t(nx) + std::size_t(i);
+        out[a] = j + h < ny ? std::max(tmp[a], tmp[a + std::size_t(h) * std::size_t(nx)]) : std::max(tmp[a], outside);
+      }
   }
-  refined.push_back({x, y, theta, best.fit});
-  const auto top = std::max_element(refined.begin(), refined.end(),
-                                    [](const Candidate& a, const Candidate& b) { return a.fit < b.fit; });
-  best = {top->x, top->y, top->th, top->fit, 0};
-  for (const Candidate& c : refined) {
-    if (distinctPoses(c, *top)) best.runner_up = std::max(best.runner_up, c.fit);
+  auto value = [&](int k, int ci, int cj) -> float {
+    const int w = 1 << k;
+    if (ci >= nx || cj >= ny || ci + w <= 0 || cj + w <= 0) return outside;
+    return pyr[std::size_t(k)][std::size_t(std::max(cj, 0)) * std::size_t(nx) + std::size_t(std::max(ci, 0))];
+  };
+  const double inv = 1.0 / double(sub.size());
+  const int n_th = int(std::ceil(2 * M_PI / 0.02));
+  const double step_th = 2 * M_PI / n_th;
+  std::vector<Candidate> cand;
+  double bar = floor;
+  std::vector<int> oi(sub.size()), oj(sub.size());
+  struct Node {
+    int k, i, j;
+  };
+  std::vector<Node> stack;
+  for (int it = 0; it < n_th; ++it) {
+    const double th = -M_PI + it * step_th;
+    const double ct = std::cos(th), st = std::sin(th);
+    for (std::size_t q = 0; q < sub.size(); ++q) {
+      oi[q] = int(std::floor(0.5 + (ct * sub[q].x - st * sub[q].y) / cell));
+      oj[q] = int(std::floor(0.5 + (st * sub[q].x + ct * sub[q].y) / cell));
+    }
+    auto bound = [&](int k, int i, int j) {
+      double sum = 0;
+      for (std::size_t q = 0; q < sub.size(); ++q) sum += double(value(k, i + oi[q], j + oj[q]));
+      ++evaluated;
+      return sum * inv;
+    };
+    const int w = 1 << levels;
+    for (int j = 0; j < ny; j += w)
+      for (int i = 0; i < nx; i += w) stack.push_back({levels, i, j});
+    while (!stack.empty()) {
+      const Node nd = stack.back();
+      stack.pop_back();
+      const double b = bound(nd.k, nd.i, nd.j);
+      if (b < bar) continue;
+      if (nd.k == 0) {
+        cand.push_back({field.x0() + (nd.i + 0.5) * cell, field.y0() + (nd.j + 0.5) * cell, th, b});
+        // A map with many look-alike places: keep the best 2000, and raise the bar to the
+        // last of them.
+        if (cand.size() >= 20000) {
+          std::nth_element(cand.begin(), cand.begin() + 1999, cand.end(),
+                           [](const Candidate& a, const Candidate& c) { return a.fit > c.fit; });
+          cand.resize(2000);
+          bar = std::max(bar, std::min_element(cand.begin(), cand.end(), [](const Candidate& a, const Candidate& c) {
+                                return a.fit < c.fit;
+                              })->fit);
+        }
+        continue;
+      }
+      const int h = 1 << (nd.k - 1);
+      for (int dj = 0; dj < 2; ++dj)
+        for (int di = 0; di < 2; ++di) {
+          const int ci = nd.i + di * h, cj = nd.j + dj * h;
+          if (ci < nx && cj < ny) stack.push_back({nd.k - 1, ci, cj});
+        }
+    }
   }
-  return best;
+  if (work != nullptr) *work = evaluated;
+  if (cand.empty()) return {};
+  std::sort(cand.begin(), cand.end(), [](const Candidate& a, const Candidate& b) { return a.fit > b.fit; });
+  std::vector<Candidate> picked;
+  for (const Candidate& c : cand) {
+    if (picked.size() >= 8) break;
+    if (std::all_of(picked.begin(), picked.end(), [&](const Candidate& p) { return distinctPoses(c, p); }))
+      picked.push_back(c);
+  }
+  return refine(field, pts, picked, nullptr, sigma);
 }
 
 }  // namespace odoerr::sim

@@ -223,6 +223,9 @@ bool run(const Odolog& log, const ReplayOptions& opt, ReplaySummary* sum, std::s
     to.init(xs, ps, k, pk);
   };
   std::deque<Est> good;  // the estimator after the last good scans, oldest first
+  // A track lost before any good scan (a wrong start) kept fusing beams at the wrong place:
+  // its recovery restarts from the priors, not from that.
+  const Est initial = est;
   std::vector<double> fits;  // the fit of every scan checked while tracked
   auto medianFit = [&fits]() {
     if (fits.empty()) return -1.0;
@@ -275,7 +278,7 @@ bool run(const Odolog& log, const ReplayOptions& opt, ReplaySummary* sum, std::s
       if (evidence >= rules.lost_after) {
         lost = true;
         failed = 0;
-        sum->episodes.push_back({sc.t, -1, fit, 0, 0, 0});
+        sum->episodes.push_back({sc.t, -1, fit, 0, 0, 0, 0, false});
         state = "lost";
         stopped = opt.stop_when_lost;
       }
@@ -287,25 +290,30 @@ bool run(const Odolog& log, const ReplayOptions& opt, ReplaySummary* sum, std::s
       state = "lost";
     } else if (lost && !stopped) {
       const int widen = failed / rules.widen_after;
-      const double wm = std::min(rules.max_window_m, rules.window_m * double(1 << std::min(widen, 8)));
+      const double reach = rules.window_m * double(1 << std::min(widen, 8));
+      const bool whole_map = rules.global && reach > rules.max_window_m;
+      const double wm = std::min(rules.max_window_m, reach);
       const double wr = std::min(rules.max_window_rad, rules.window_rad * double(1 << std::min(widen, 8)));
-      const ScanMatch m = matchScan(field, pts, x[0], x[1], x[2], wm, wr, rules.sigma_m);
-      // Found: a pose that fits well and clearly better than the filter's, or the filter's
-      // own pose fitting well again.
       // Found: a pose that fits well, clearly better than the filter's and than any other
-      // candidate of the window (not a corridor's twin), or the filter's own pose fitting
+      // candidate of the search (not a corridor's twin), or the filter's own pose fitting
       // well again.
       // After a loss the bar is the log's own: rules.found_share of the median fit of the
       // scans tracked so far (a building whose scans fit at 0.9 does not take 0.55).
+      // Past the widest window the whole map is searched (its coarse step opens only what
+      // could reach 0.8 of the bar with the doubled sigma).
       const double bar = std::max(rules.accept_fit, rules.found_share * medianFit());
+      const ScanMatch m = whole_map ? matchGlobal(field, pts, rules.sigma_m, 0.8 * bar)
+                                    : matchScan(field, pts, x[0], x[1], x[2], wm, wr, rules.sigma_m);
+      if (whole_map) ++sum->episodes.back().map_searches;
       if (pts.size() >= 10 && m.fit >= bar && m.fit - m.runner_up >= rules.distinct &&
           (m.fit >= fit + rules.gain || fit >= rules.poor_fit)) {
         LostEpisode& ep = sum->episodes.back();
+        ep.found_on_map = whole_map;
         ep.t_recovered = sc.t;
         ep.fit_recovered = m.fit;
         ep.jump_m = std::hypot(m.x - x[0], m.y - x[1]);
         ep.jump_rad = wrapAngle(m.theta - x[2]);
-        const Est restart = good.empty() ? est : good.front();
+        const Est& restart = good.empty() ? initial : good.front();
         setPose(est, m, restart);
         good.clear();
         lost = false;
@@ -424,7 +432,9 @@ bool replayOdolog(const Odolog& log, const ReplayOptions& opt, ReplaySummary* su
                      {"fit_lost", e.fit_lost},
                      {"fit_recovered", e.fit_recovered},
                      {"jump_m", e.jump_m},
-                     {"jump_rad", e.jump_rad}});
+                     {"jump_rad", e.jump_rad},
+                     {"map_searches", e.map_searches},
+                     {"found_by", e.t_recovered < 0 ? json(nullptr) : json(e.found_on_map ? "map" : "window")}});
     }
     tr["lost_episodes"] = sum->episodes.size();
     tr["recovered"] = recovered;

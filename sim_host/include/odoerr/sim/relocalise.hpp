@@ -24,6 +24,14 @@ class LikelihoodField {
   double distance(double x, double y) const;
   double maxDistance() const { return max_; }
   bool empty() const { return d_.empty(); }
+  /// The grid: nx() x ny() cells of cell() m, cell (i, j) from (x0() + i cell(), y0() + j
+  /// cell()); cellDistance(i, j) its distance (i, j inside the grid).
+  int nx() const { return nx_; }
+  int ny() const { return ny_; }
+  double cell() const { return cell_; }
+  double x0() const { return x0_; }
+  double y0() const { return y0_; }
+  double cellDistance(int i, int j) const { return double(d_[std::size_t(j) * std::size_t(nx_) + std::size_t(i)]); }
 
  private:
   double x0_ = 0, y0_ = 0, cell_ = 0.05, max_ = 1.0;
@@ -75,6 +83,7 @@ struct TrackingRules {
   int widen_after = 5;         ///< then in one twice as wide after every 5 failed scans
                                ///< (searched on every 5th scan while lost)
   double max_window_m = 4.0, max_window_rad = 3.2;
+  bool global = true;          ///< past the widest window, the whole map is searched (matchGlobal)
   int snapshots = 10;          ///< the estimator is restored from the oldest of the last 10 good scans
 };
 
@@ -83,5 +92,13 @@ struct TrackingRules {
 /// its best candidates refined twice on lattices four times finer.
 ScanMatch matchScan(const LikelihoodField& field, const std::vector<ScanPoint>& pts, double x, double y,
                     double theta, double window_m, double window_rad, double sigma);
+
+/// The pose of best fit anywhere on the map, every heading: a branch and bound over the
+/// translations at each heading of a 0.02 rad lattice (the field's cells, the fit's sigma
+/// doubled), blocks whose bound on the fit falls below `floor` never opened, then the best
+/// distinct candidates refined as in matchScan. fit 0 when no pose reaches `floor` (with
+/// the doubled sigma). `work` counts the bounds and leaves evaluated.
+ScanMatch matchGlobal(const LikelihoodField& field, const std::vector<ScanPoint>& pts, double sigma, double floor,
+                      std::size_t* work = nullptr);
 
 }  // namespace odoerr::sim

@@ -44,6 +44,8 @@ struct LostEpisode {
   double fit_lost = 0;         ///< the scan's fit at the filter's pose when declared lost
   double fit_recovered = 0;    ///< at the relocalised pose
   double jump_m = 0, jump_rad = 0;  ///< relocalised pose minus the filter's
+  int map_searches = 0;        ///< whole-map searches run while lost (TrackingRules::global)
+  bool found_on_map = false;   ///< recovered by a whole-map search, not a window around the pose
 };
 
 struct ReplayParam {
