@@ -13,6 +13,11 @@ The steps, each an odoerr command or importer (printed as it runs, its output in
 2. the map: --map (.odomap, or a ROS map_server YAML, imported with --faces); else, for a
    CARMEN log, an occupancy grid from its corrected poses and scans, then its line segments
    (what a user's SLAM run would give); else the odolog's own walls.
+   The reference the check uses: the log's reference poses ('truth' records, a CARMEN
+   log's corrected poses); a log without them is first tracked over its whole length
+   against the map (range sigma 0.10 m, relocalisation on), and that track, at the scans
+   where it fits the map, stands in for them (DIR/log_reference.odolog). A log with
+   neither reference poses nor a map is refused; so is one whose track is lost.
 3. the settings, from the data (each value and its reason in calibration.json):
    a first pass of the estimator over the first half gives K_w (the start of K for the
    next passes, within 1e-5-1e-2 m) and the laser-to-map residuals (the residual sigma:
@@ -38,7 +43,8 @@ The steps, each an odoerr command or importer (printed as it runs, its output in
 
 Writes DIR/calibration.json (the contract in docs/real-data.md) and prints a summary.
 Exit status 0 when a verdict was reached (trusted or not), 1 when a step failed, 2 on an
-input it cannot read or work from (no laser scans; no reference poses to check against).
+input it cannot read or work from (no laser scans; no reference poses and no map; no
+reference poses and a track that is lost).
 """
 import argparse
 import gzip
@@ -177,9 +183,11 @@ def trust(result, quarters, raw_share):
     tr1 = result["tracking_first_half"]
     if tr1.get("lost"):
         return False, "the track of the first half was lost and not recovered: its calibration is not used"
-    off = tr1.get("pose_rmse_at_truth_m")
+    off, what = tr1.get("pose_rmse_at_truth_m"), "the log's reference poses"
+    if off is None and tr1.get("rmse_to_reference_track_m") is not None:
+        off, what = tr1["rmse_to_reference_track_m"], "the reference track (the log has no reference poses)"
     if off is not None and off > TRACK_OFF_M:
-        return False, (f"the track of the first half is {off:.2f} m RMS off the log's reference poses (more than "
+        return False, (f"the track of the first half is {off:.2f} m RMS off {what} (more than "
                        f"{TRACK_OFF_M} m): a relocalisation went wrong or the track drifted; its calibration is "
                        f"not used")
     if raw_share is not None and raw_share < RAW_ODOMETRY_MIN:
@@ -209,15 +217,74 @@ def trust(result, quarters, raw_share):
                   f"predicted growth is within {GROWTH_MAX}x (x{g:.2f})" + note)
 
 
-def tracking_block(rep):
+REFERENCE_STATES = ("tracked", "corrected", "recovered")  # tracking.csv states a reference pose is taken at
+
+
+def tracked_reference(a, r, log, mp, settings):
+    """A log without reference poses: the robot tracked over the whole log against the map
+    (the first pass's defaults, relocalisation on) stands in for them. Its poses at the
+    scans where the track fits the map (tracking.csv states REFERENCE_STATES) become the
+    log's 'truth' records in DIR/log_reference.odolog; a track lost and not recovered
+    is no reference, and the log is refused. Returns (the new log, the reference's entry
+    in settings)."""
+    if mp is None and record_counts(log).get("wall", 0) == 0:
+        raise InputRefused(f"{a.log}: no reference poses and no map (no --map, no 'wall' records): calibrate needs "
+                           f"the map to track the robot, and the track to check the calibration against")
+    pre = dict(settings, range_sigma_m={"value": a.range_sigma or 0.10})
+    rep = r.replay("reference track", log, mp, "reference", pre, relocalise=True, k0=a.k0 or 3e-4)
     t = rep.get("tracking", {})
-    return {"pose_rmse_at_truth_m": rep.get("pose_rmse_at_truth_records_m"),
-            "heading_rmse_at_truth_rad": rep.get("heading_rmse_at_truth_records_rad"),
-            "truth_records": rep.get("truth_records_scored"),
-            "lost": bool(t.get("lost", False)), "lost_episodes": t.get("lost_episodes", 0),
-            "recovered": t.get("recovered", 0), "fit_median": t.get("fit_median"),
-            "scans_poor": t.get("scans_poor"), "scans_checked": t.get("scans_checked"),
-            "episodes": t.get("episodes", [])}
+    if t.get("lost"):
+        raise InputRefused(f"{a.log}: no reference poses, and the track that would stand in for them was lost and "
+                           f"not recovered (reference/tracking.csv): the calibration cannot be checked")
+    kept, dropped = {}, 0
+    with open(os.path.join(r.path("reference"), "tracking.csv")) as f:
+        next(f)
+        for line in f:
+            p = line.strip().split(",")
+            if len(p) != 6:
+                continue
+            if p[5] in REFERENCE_STATES:
+                kept[round(float(p[0]), 4)] = p[1:4]
+            else:
+                dropped += 1
+    out = r.path("log_reference.odolog")
+    n = 0
+    with open(log) as src, open(out, "w") as dst:
+        for line in src:
+            if line.startswith("truth "):
+                continue
+            dst.write(line)
+            if line.startswith("scan "):
+                ts = line.split(" ", 2)[1]
+                pose = kept.get(round(float(ts), 4))
+                if pose is not None:
+                    dst.write(f"truth {ts} {pose[0]} {pose[1]} {pose[2]}\n")
+                    n += 1
+    if n < 3:
+        raise InputRefused(f"{a.log}: no reference poses, and the track fits the map at only {n} scans: the "
+                           f"calibration cannot be checked")
+    return out, {"kind": "track", "poses": n, "scans_left_out": dropped,
+                 "why": (f"the log has no reference poses: the robot tracked over the whole log against the map "
+                         f"(range sigma {pre['range_sigma_m']['value']:g} m, relocalisation on; reference/) stands in "
+                         f"for them, at the {n} scans where its fit is good ({dropped} poor or lost left out). "
+                         f"The check then sees the odometry's error against the track, whose own error (a few cm "
+                         f"on the buildings where it could be measured) it cannot see; the pose RMSE at reference "
+                         f"poses is not computed")}
+
+
+def tracking_block(rep, reference=None):
+    t = rep.get("tracking", {})
+    tracked = reference is not None and reference["kind"] == "track"
+    out = {"pose_rmse_at_truth_m": None if tracked else rep.get("pose_rmse_at_truth_records_m"),
+           "heading_rmse_at_truth_rad": None if tracked else rep.get("heading_rmse_at_truth_records_rad"),
+           "truth_records": None if tracked else rep.get("truth_records_scored"),
+           "lost": bool(t.get("lost", False)), "lost_episodes": t.get("lost_episodes", 0),
+           "recovered": t.get("recovered", 0), "fit_median": t.get("fit_median"),
+           "scans_poor": t.get("scans_poor"), "scans_checked": t.get("scans_checked"),
+           "episodes": t.get("episodes", [])}
+    if tracked:  # against the reference track: how far this track is from it
+        out["rmse_to_reference_track_m"] = rep.get("pose_rmse_at_truth_records_m")
+    return out
 
 
 def main(argv=None):
@@ -305,18 +372,20 @@ def calibrate(a, r, fmt, settings):
     if kinds.get("scan", 0) == 0 or "laser" not in kinds:
         raise InputRefused(f"{a.log}: no laser scans: calibrate tracks the robot against the map with its laser "
                            f"(odolog 'laser' and 'scan' records)")
-    if kinds.get("truth", 0) < 2:
-        raise InputRefused(f"{a.log}: no reference poses ('truth' records, a CARMEN log's corrected poses): "
-                           f"calibrate checks the calibration on the half of the path it did not fit, against a "
-                           f"reference; a log without one cannot be checked (not supported yet)")
-    r.run("split", [PY, os.path.join(IMPORT_DIR, "odolog_split.py"), log, "--first", r.path("first.odolog"),
-                    "--second", r.path("second.odolog")])
     settings["order_beams"] = {"value": True, "why": "a map from a SLAM grid misses objects and people: the beams "
                                                      "most consistent with the map are fused first, so one wrong "
                                                      "beam does not pull the pose"}
     settings["param_sigma"] = {"value": a.param_sigma or PARAM_SIGMA,
                                "why": "given (--param-sigma)" if a.param_sigma else
                                "the nominal constants are declared, not measured: a 5 % prior on each scale"}
+    if kinds.get("truth", 0) >= 2:
+        reference = {"kind": "log", "poses": kinds["truth"],
+                     "why": "the log's reference poses ('truth' records; a CARMEN log's corrected poses)"}
+    else:
+        log, reference = tracked_reference(a, r, log, mp, settings)
+    settings["reference"] = reference
+    r.run("split", [PY, os.path.join(IMPORT_DIR, "odolog_split.py"), log, "--first", r.path("first.odolog"),
+                    "--second", r.path("second.odolog")])
     settings["range_sigma_m"] = {"value": a.range_sigma or 0.10, "why": "first pass"}
     probe = r.replay("first pass", r.path("first.odolog"), mp, "pass1", settings, relocalise=True,
                      k0=a.k0 or 3e-4)
@@ -373,7 +442,7 @@ def calibrate(a, r, fmt, settings):
         if m and scans > 1:
             raw_share = 1 - int(m.group(1)) / (scans - 1)
     result = {"log": a.log, "format": fmt,
-              "tracking": tracking_block(full), "tracking_first_half": tracking_block(first),
+              "tracking": tracking_block(full, reference), "tracking_first_half": tracking_block(first, reference),
               "calibration": {"constants": c, "sigma": s, "K_w": kw, "quarters": quarters,
                               "nominal": {"delta_R": 1.0, "delta_L": 1.0, "delta_d": 1.0}},
               "rpe_5m_second_half": rpe, "growth": growth,
@@ -446,6 +515,10 @@ def summary(res, where):
     if rmse is not None:
         print(f"  pose RMSE at the {t['truth_records']} reference poses: {rmse:.3f} m, "
               f"heading {t['heading_rmse_at_truth_rad']:.4f} rad")
+    ref = res["settings"].get("reference", {})
+    if ref.get("kind") == "track":
+        print(f"  no reference poses in the log: the track is the reference ({ref['poses']} scans; the pose error "
+              f"cannot be measured, the check sees the odometry against the track)")
     rej = res.get("encoder_rejections") or {}
     if rej.get("count"):
         r0 = rej["first"][0]
