@@ -372,8 +372,11 @@ class Model {
       const S* p = x.data() + off;
       inc = e.apply(inc, p, ctx, d_in, d_p);
       if (d_state != nullptr) {
-        // chain rule: everything upstream of this effect passes through d_in
-        *d_state = d_in * (*d_state);
+        // chain rule: everything upstream of this effect passes through d_in. Upstream is
+        // the drive's block and the effects' blocks before this one (the pose's columns and
+        // every later block are still zero): only those columns are multiplied.
+        constexpr int up = off - kDriveOffset;
+        d_state->template middleCols<up>(kDriveOffset) = (d_in * d_state->template middleCols<up>(kDriveOffset)).eval();
         d_state->template block<3, E::kParams>(0, off) += d_p;
         *d_noise = d_in * (*d_noise);
       }
