@@ -50,6 +50,25 @@ def replay(odoerr, log, out, reloc):
     return rep, rows
 
 
+def moved_start(src, dst, move):
+    """dst: the log src with its init moved by move(x, y, theta) and a sigma claiming 1 cm."""
+    with open(src) as f, open(dst, "w") as g:
+        for line in f:
+            if line.startswith("init "):
+                w = line.split()
+                x, y, th = move(float(w[1]), float(w[2]), float(w[3]))
+                line = f"init {x:.6f} {y:.6f} {th:.6f} 0.01 0.01 0.01\n"
+            g.write(line)
+    return dst
+
+
+def worst_after_recovery(eps, rows):
+    """(the last recovery's time, the largest position error from 1 s after it)."""
+    t_rec = eps[-1]["t_recovered"]
+    after = [e for t, e in rows if t > t_rec + 1.0]
+    return t_rec, max(after) if after else float("inf")
+
+
 def main():
     odoerr, work = sys.argv[1], sys.argv[2]
     os.makedirs(work, exist_ok=True)
@@ -62,14 +81,7 @@ def main():
         f.writelines(f"{x} {y}\n" for x, y in PATH)
     good = os.path.join(work, "drive.odolog")
     run([odoerr, "sim", "--map", mp, "--path", path, "--out", good, "--seed", "7"])
-    bad = os.path.join(work, "wrong_start.odolog")
-    with open(good) as f, open(bad, "w") as g:
-        for line in f:
-            if line.startswith("init "):
-                w = line.split()
-                x, y, th = float(w[1]) + 0.6, float(w[2]) - 0.53, float(w[3]) + 0.35
-                line = f"init {x:.6f} {y:.6f} {th:.6f} 0.01 0.01 0.01\n"
-            g.write(line)
+    bad = moved_start(good, os.path.join(work, "wrong_start.odolog"), lambda x, y, th: (x + 0.6, y - 0.53, th + 0.35))
     fails = 0
 
     def check(ok, what):
@@ -87,22 +99,14 @@ def main():
     check(tr["lost_episodes"] >= 1 and tr["recovered"] == tr["lost_episodes"] and not tr["lost"],
           f"with --relocalise: {tr['lost_episodes']} lost, {tr['recovered']} recovered, lost at the end {tr['lost']}")
     if eps and eps[-1]["t_recovered"] is not None:
-        t_rec = eps[-1]["t_recovered"]
-        after = [e for t, e in rows if t > t_rec + 1.0]
-        worst = max(after) if after else float("inf")
+        t_rec, worst = worst_after_recovery(eps, rows)
         check(worst < 0.05, f"from 1 s after the recovery at t={t_rec:.1f} s (jump {eps[-1]['jump_m']:.2f} m, "
                             f"{eps[-1]['jump_rad']:.2f} rad) the pose stays within {worst * 100:.1f} cm of the truth")
         check(eps[0]["t_lost"] < 0.2 * rows[-1][0], f"the loss is declared early: t={eps[0]['t_lost']:.1f} s of "
                                                      f"{rows[-1][0]:.0f} s")
     # Kidnapped: the start placed in another room, 13 m off and turned 2 rad, again claiming
     # 1 cm. No window around the filter's pose holds the robot; the whole-map search must.
-    far = os.path.join(work, "kidnapped.odolog")
-    with open(good) as f, open(far, "w") as g:
-        for line in f:
-            if line.startswith("init "):
-                w = line.split()
-                line = f"init 15.000000 6.500000 {float(w[3]) + 2.0:.6f} 0.01 0.01 0.01\n"
-            g.write(line)
+    far = moved_start(good, os.path.join(work, "kidnapped.odolog"), lambda x, y, th: (15.0, 6.5, th + 2.0))
     rep, rows = replay(odoerr, far, os.path.join(work, "kidnapped"), True)
     tr = rep["tracking"]
     eps = tr["episodes"]
@@ -110,9 +114,7 @@ def main():
           f"kidnapped: {tr['lost_episodes']} lost, {tr['recovered']} recovered, the last found by "
           f"{eps[-1]['found_by'] if eps else None} after {eps[-1]['map_searches'] if eps else 0} whole-map search(es)")
     if eps and eps[-1]["t_recovered"] is not None:
-        t_rec = eps[-1]["t_recovered"]
-        after = [e for t, e in rows if t > t_rec + 1.0]
-        worst = max(after) if after else float("inf")
+        t_rec, worst = worst_after_recovery(eps, rows)
         check(worst < 0.05, f"kidnapped: from 1 s after the recovery at t={t_rec:.1f} s (jump {eps[-1]['jump_m']:.2f} m) "
                             f"the pose stays within {worst * 100:.1f} cm of the truth")
     rep, rows = replay(odoerr, good, os.path.join(work, "clean"), True)
