@@ -10,30 +10,15 @@
 #include "odoerr/sim/odolog_writer.hpp"
 #include "odoerr/sim/replay.hpp"
 #include "odoerr/sim/runner.hpp"
+#include "simulated_log.hpp"
 
 using namespace odoerr;
 using namespace odoerr::sim;
 
 namespace {
 
-std::string simulatedLog(std::uint64_t seed, int steps) {
-  SimConfig cfg;
-  cfg.steps = steps;
-  FilterSetup setup;
-  PaperSim<DiffDrive<double>> header_sim(cfg, seed);
-  std::string text = odologHeader(header_sim, seed, setup.sigma_pose_xy, setup.sigma_pose_theta);
-  (void)runDrive<double, DiffDrive>(cfg, seed, NonSysStart::kSmall, setup, steps,
-                                    [&](const SimStep<DiffDrive<double>>& s) {
-                                      appendOdologStep(text, s, cfg.laser.beams);
-                                    });
-  return text;
-}
-
-std::string tempDir(const char* name) {
-  const auto d = std::filesystem::temp_directory_path() / ("odoerr-test-" + std::string(name));
-  std::filesystem::remove_all(d);
-  return d.string();
-}
+using test::simulatedLog;
+using test::tempDir;
 
 std::size_t lines(const std::string& path) {
   std::ifstream f(path);
