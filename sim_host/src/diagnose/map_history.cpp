@@ -61,16 +61,17 @@ RegionHistory regionHistory(std::vector<RegionSighting> seen) {
   return h;
 }
 
+using Json = nlohmann::ordered_json;
+
 nlohmann::ordered_json regionHistoryJson(const RegionHistory& h) {
-  using json = nlohmann::ordered_json;
-  json j = {{"kind", h.kind},
+  Json j = {{"kind", h.kind},
             {"seen", {{"scans", h.scans}, {"t_first", h.t_first}, {"t_last", h.t_last}}},
             {"disagreed", {{"scans", h.disagreed},
-                           {"share", h.scans > 0 ? json(double(h.disagreed) / h.scans) : json(nullptr)},
-                           {"t_first", h.disagreed > 0 ? json(h.t_disagreed_first) : json(nullptr)},
-                           {"t_last", h.disagreed > 0 ? json(h.t_disagreed_last) : json(nullptr)}}}};
-  j["change"] = h.changed ? json({{"t", h.t_change}, {"share_before", h.share_before}, {"share_after", h.share_after}})
-                          : json(nullptr);
+                           {"share", h.scans > 0 ? Json(double(h.disagreed) / h.scans) : Json(nullptr)},
+                           {"t_first", h.disagreed > 0 ? Json(h.t_disagreed_first) : Json(nullptr)},
+                           {"t_last", h.disagreed > 0 ? Json(h.t_disagreed_last) : Json(nullptr)}}}};
+  j["change"] = h.changed ? Json({{"t", h.t_change}, {"share_before", h.share_before}, {"share_after", h.share_after}})
+                          : Json(nullptr);
   return j;
 }
 
