@@ -264,6 +264,9 @@ ScanMatch matchGlobal(const LikelihoodField& field, const std::vector<ScanPoint>
   int levels = 0;
   while ((1 << levels) * cell < 3.0 && (1 << levels) < std::max(nx, ny)) ++levels;
   const std::size_t n = std::size_t(nx) * std::size_t(ny);
+  // The pyramid holds levels + 2 grids of floats: on a very large field, fewer levels (more,
+  // smaller root blocks: slower, the bound as valid) keep it within 256 MB.
+  while (levels > 1 && n * std::size_t(levels + 2) * sizeof(float) > (std::size_t(256) << 20)) --levels;
   std::vector<std::vector<float>> pyr(std::size_t(levels) + 1, std::vector<float>(n));
   for (int j = 0; j < ny; ++j)
     for (int i = 0; i < nx; ++i) pyr[0][std::size_t(j) * std::size_t(nx) + std::size_t(i)] = float(table(field.cellDistance(i, j)));
