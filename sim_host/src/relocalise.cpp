@@ -267,29 +267,24 @@ ScanMatch matchGlobal(const LikelihoodField& field, const std::vector<ScanPoint>
   // The pyramid holds levels + 2 grids of floats: on a very large field, fewer levels (more,
   // smaller root blocks: slower, the bound as valid) keep it within 256 MB.
   while (levels > 1 && n * std::size_t(levels + 2) * sizeof(float) > (std::size_t(256) << 20)) --levels;
+  auto at = [nx](int i, int j) { return std::size_t(j) * std::size_t(nx) + std::size_t(i); };
   std::vector<std::vector<float>> pyr(std::size_t(levels) + 1, std::vector<float>(n));
   for (int j = 0; j < ny; ++j)
-    for (int i = 0; i < nx; ++i) pyr[0][std::size_t(j) * std::size_t(nx) + std::size_t(i)] = float(table(field.cellDistance(i, j)));
+    for (int i = 0; i < nx; ++i) pyr[0][at(i, j)] = float(table(field.cellDistance(i, j)));
   std::vector<float> tmp(n);
   for (int k = 1; k <= levels; ++k) {
     const int h = 1 << (k - 1);
     const std::vector<float>& g = pyr[std::size_t(k - 1)];
-    for (int j = 0; j < ny; ++j)
-      for (int i = 0; i < nx; ++i) {
-        const std::size_t a = std::size_t(j) * std::size_t(nx) + std::size_t(i);
-        tmp[a] = i + h < nx ? std::max(g[a], g[a + std::size_t(h)]) : std::max(g[a], outside);
-      }
     std::vector<float>& out = pyr[std::size_t(k)];
     for (int j = 0; j < ny; ++j)
-      for (int i = 0; i < nx; ++i) {
-        const std::size_t a = std::size_t(j) * std::size_t(nx) + std::size_t(i);
-        out[a] = j + h < ny ? std::max(tmp[a], tmp[a + std::size_t(h) * std::size_t(nx)]) : std::max(tmp[a], outside);
-      }
+      for (int i = 0; i < nx; ++i) tmp[at(i, j)] = std::max(g[at(i, j)], i + h < nx ? g[at(i + h, j)] : outside);
+    for (int j = 0; j < ny; ++j)
+      for (int i = 0; i < nx; ++i) out[at(i, j)] = std::max(tmp[at(i, j)], j + h < ny ? tmp[at(i, j + h)] : outside);
   }
   auto value = [&](int k, int ci, int cj) -> float {
     const int w = 1 << k;
     if (ci >= nx || cj >= ny || ci + w <= 0 || cj + w <= 0) return outside;
-    return pyr[std::size_t(k)][std::size_t(std::max(cj, 0)) * std::size_t(nx) + std::size_t(std::max(ci, 0))];
+    return pyr[std::size_t(k)][at(std::max(ci, 0), std::max(cj, 0))];
   };
   const double inv = 1.0 / double(sub.size());
   const int n_th = int(std::ceil(2 * M_PI / 0.02));
@@ -329,10 +324,8 @@ ScanMatch matchGlobal(const LikelihoodField& field, const std::vector<ScanPoint>
         if (cand.size() >= 20000) {
           std::nth_element(cand.begin(), cand.begin() + 1999, cand.end(),
                            [](const Candidate& a, const Candidate& c) { return a.fit > c.fit; });
+          bar = std::max(bar, cand[1999].fit);
           cand.resize(2000);
-          bar = std::max(bar, std::min_element(cand.begin(), cand.end(), [](const Candidate& a, const Candidate& c) {
-                                return a.fit < c.fit;
-                              })->fit);
         }
         continue;
       }

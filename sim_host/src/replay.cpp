@@ -278,7 +278,10 @@ bool run(const Odolog& log, const ReplayOptions& opt, ReplaySummary* sum, std::s
       if (evidence >= rules.lost_after) {
         lost = true;
         failed = 0;
-        sum->episodes.push_back({sc.t, -1, fit, 0, 0, 0, 0, false});
+        LostEpisode ep;
+        ep.t_lost = sc.t;
+        ep.fit_lost = fit;
+        sum->episodes.push_back(ep);
         state = "lost";
         stopped = opt.stop_when_lost;
       }

@@ -4,8 +4,9 @@
   check_calibrate_cli.py ODOERR WORKDIR
 
 Always: a file that is neither an odolog nor a CARMEN log is refused (exit 2, FILE:LINE); so
-are an odolog with neither reference poses nor a map and one without laser scans (exit 2,
-naming it).
+are an odolog with neither reference poses nor a map, one without reference poses whose
+track is lost (its walls moved away from where its scans see them) and one without laser
+scans (exit 2, naming it).
 With the CARMEN data (import_common.data_dir(): $ODOERR_DATA, else ../shared/data; skipped
 with a message, exit 77, without it): the Intel lab's first 300 scans, no option but the
 crop: the contract's keys are there, the robot is tracked (not lost, pose RMS at the
@@ -30,6 +31,7 @@ import sys
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "tools", "import"))
 import import_common  # noqa: E402
+from check_relocalise import moved_start  # noqa: E402  (the log with its init moved)
 
 
 def main():
@@ -61,6 +63,21 @@ def main():
                            capture_output=True, text=True)
         check(r.returncode == 2 and needle in r.stderr and cut in r.stderr,
               f"{name}: exit {r.returncode}, {r.stderr.strip()[:160]}")
+    # No reference poses, and a map the scans never fit (the room's walls moved 50 m away):
+    # the track that would stand in is lost and never found, so the log is refused.
+    astray = os.path.join(work, "no-truth-astray.odolog")
+    with open(sim) as f, open(astray, "w") as g:
+        for ln in f:
+            if ln.startswith("truth "):
+                continue
+            if ln.startswith("wall "):
+                w = ln.split()
+                ln = f"wall {float(w[1]) + 50} {w[2]} {float(w[3]) + 50} {w[4]}\n"
+            g.write(ln)
+    r = subprocess.run([odoerr, "calibrate", astray, "--out", os.path.join(work, "no-truth-astray")],
+                       capture_output=True, text=True)
+    check(r.returncode == 2 and "was lost and not recovered" in r.stderr and astray in r.stderr,
+          f"no reference poses and a track that is lost: exit {r.returncode}, {r.stderr.strip()[:160]}")
     d = import_common.find_data("carmen/intel-corrected.log.gz", sample=False)
     if not d:
         print(import_common.skip_message("odoerr calibrate on the Intel lab", "carmen/intel-corrected.log.gz"))
@@ -116,13 +133,8 @@ def main():
     # sigma that claims 1 cm, replayed against the crop's map. The whole-map search finds the
     # robot, and the recovery restarts from the priors (the track had fused beams at the wrong
     # place): the constants end near 1 and the track follows the corrected poses.
-    kid = os.path.join(work, "intel300-kidnapped.odolog")
-    with open(os.path.join(out, "log.odolog")) as f, open(kid, "w") as g:
-        for line in f:
-            if line.startswith("init "):
-                w = line.split()
-                line = f"init {float(w[1]) + 10:.6f} {float(w[2]) - 6:.6f} {float(w[3]) + 1.5:.6f} 0.01 0.01 0.01\n"
-            g.write(line)
+    kid = moved_start(os.path.join(out, "log.odolog"), os.path.join(work, "intel300-kidnapped.odolog"),
+                      lambda x, y, th: (x + 10, y - 6, th + 1.5))
     kout = os.path.join(work, "intel300-kidnapped")
     r = subprocess.run([odoerr, "replay", kid, "--map", os.path.join(out, "map.odomap"), "--out", kout, "--relocalise",
                         "--order-beams", "--range-sigma", f"{c['settings']['range_sigma_m']['value']:.4g}"],

@@ -55,18 +55,23 @@ def candidates(sig, first_pass_tracked=True):
     return out
 
 
+def tracking_rows(replay_dir):
+    """The rows of a --relocalise replay's tracking.csv (t, x, y, theta, fit, state), as dicts."""
+    with open(os.path.join(replay_dir, "tracking.csv"), newline="") as f:
+        return list(csv.DictReader(f))
+
+
 def track_quality(replay_dir, rep):
     """What a --relocalise replay says of its own track: lost at the end, the loss episodes,
     and the mean fit of its scans (a lost stretch's scans fit poorly and pull it down)."""
     fits = []
-    with open(os.path.join(replay_dir, "tracking.csv"), newline="") as f:
-        for row in csv.DictReader(f):
-            try:
-                v = float(row["fit"])
-            except (KeyError, TypeError, ValueError):
-                continue
-            if math.isfinite(v):
-                fits.append(v)
+    for row in tracking_rows(replay_dir):
+        try:
+            v = float(row["fit"])
+        except (KeyError, TypeError, ValueError):
+            continue
+        if math.isfinite(v):
+            fits.append(v)
     t = rep.get("tracking", {})
     return {"lost": bool(t.get("lost", False)), "lost_episodes": int(t.get("lost_episodes", 0)),
             "fit_mean": statistics.fmean(fits) if fits else None, "scans": len(fits)}

@@ -237,16 +237,11 @@ def tracked_reference(a, r, log, mp, settings):
         raise InputRefused(f"{a.log}: no reference poses, and the track that would stand in for them was lost and "
                            f"not recovered (reference/tracking.csv): the calibration cannot be checked")
     kept, dropped = {}, 0
-    with open(os.path.join(r.path("reference"), "tracking.csv")) as f:
-        next(f)
-        for line in f:
-            p = line.strip().split(",")
-            if len(p) != 6:
-                continue
-            if p[5] in REFERENCE_STATES:
-                kept[round(float(p[0]), 4)] = p[1:4]
-            else:
-                dropped += 1
+    for row in choose.tracking_rows(r.path("reference")):
+        if row["state"] in REFERENCE_STATES:
+            kept[round(float(row["t"]), 4)] = (row["x"], row["y"], row["theta"])
+        else:
+            dropped += 1
     out = r.path("log_reference.odolog")
     n = 0
     with open(log) as src, open(out, "w") as dst:
