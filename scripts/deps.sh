@@ -4,7 +4,8 @@
 set -euo pipefail
 
 PACKAGES=(
-  cmake ninja-build make g++   # build (the presets use Ninja; make for a plain `cmake -B`)
+  cmake ninja-build make    # build (the presets use Ninja; make for a plain `cmake -B`)
+  clang-14 g++              # the host preset compiles with clang 14 (libstdc++ from g++); host-asan and host-gcc with g++
   libeigen3-dev             # core
   libcli11-dev nlohmann-json3-dev   # odoerr tool
   libboost-dev              # Boost.Math (header-only): exact chi-square quantiles
@@ -16,7 +17,7 @@ PACKAGES=(
 if [ "${1:-}" = "--target" ]; then
   PACKAGES+=(gcc-arm-none-eabi libnewlib-arm-none-eabi libstdc++-arm-none-eabi-dev qemu-system-arm
             chromium   # the report's render test (headless)
-            clang-14 libclang-rt-14-dev)  # the fuzz preset: clang, libFuzzer + ASan/UBSan runtimes
+            libclang-rt-14-dev)  # the fuzz preset: libFuzzer + ASan/UBSan runtimes for clang 14
 fi
 
 missing=()

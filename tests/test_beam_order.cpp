@@ -10,6 +10,7 @@
 
 #include "odoerr/akf.hpp"
 #include "odoerr/map.hpp"
+#include "odoerr/sim/random.hpp"
 
 using namespace odoerr;
 
@@ -90,7 +91,7 @@ TEST(BeamOrder, AnOutlierFusedLastIsGatedInsteadOfMovingTheState) {
 TEST(BeamOrder, ConsistentBeamsGiveNearlyTheSameUpdateInAnyOrder) {
   Room s;
   std::mt19937 rng(7);
-  std::normal_distribution<double> noise(0, 0.03);
+  odoerr::sim::NormalDist<double> noise(0, 0.03);
   std::vector<double> r(36);
   for (int i = 0; i < 36; ++i) r[i] = s.map.cast(3.02, 3.98, 0.31 + s.lc.angle_min + i * s.lc.angle_inc).range + noise(rng);
   Akf<M> in_order = wideAkf(false);

@@ -5,6 +5,7 @@
 #include <random>
 
 #include "diagnose/regression.hpp"
+#include "odoerr/sim/random.hpp"
 
 using odoerr::sim::diag::ChangePoint;
 using odoerr::sim::diag::Design;
@@ -21,7 +22,7 @@ namespace {
 Design makeDesign(int n, int cand, const std::vector<std::pair<int, double>>& truth, double phi, unsigned seed,
                   double noise = 1.0) {
   std::mt19937_64 rng(seed);
-  std::normal_distribution<double> g;
+  odoerr::sim::NormalDist<double> g;
   Design d;
   d.n_nuisance = 1;
   d.x.resize(n, 1 + cand);

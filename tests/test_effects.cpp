@@ -13,6 +13,7 @@
 #include "odoerr/effects/catalogue.hpp"
 #include "odoerr/estimator.hpp"
 #include "reverse_scale.hpp"  // docs/examples: the tutorial's worked example
+#include "odoerr/sim/random.hpp"
 
 namespace odoerr {
 namespace {
@@ -459,7 +460,7 @@ TEST(EffectTutorial, ReverseScaleIsEstimatedFromADriveThatReverses) {
   const D k_true = 0.04;
   D x = 5, y = 5, th = 0.3;
   std::mt19937 rng(7);
-  std::normal_distribution<D> noise(0, 0.03);
+  odoerr::sim::NormalDist<D> noise(0, 0.03);
   std::vector<D> ranges(36);
   const auto& lc = laser.config();
   for (int i = 0; i < 3000; ++i) {

@@ -8,6 +8,7 @@
 
 #include "odoerr/effects/features.hpp"
 #include "odoerr/sim/evaluate.hpp"
+#include "odoerr/sim/random.hpp"
 
 using namespace odoerr;
 using namespace odoerr::sim;
@@ -185,7 +186,7 @@ TEST(EvaluateGrowth, PredictedSigmaMatchesMonteCarloOfTheSameNoise) {
   const double pred = predictedRpeSigma(clean, {}, k_w, ref, 5.0, 0.1);
   ASSERT_GT(pred, 0);
   std::mt19937 rng(9);
-  std::normal_distribution<double> g(0, 1);
+  odoerr::sim::NormalDist<double> g(0, 1);
   double sq = 0;
   long n = 0;
   for (int run = 0; run < 400; ++run) {
@@ -247,7 +248,7 @@ TEST(EvaluateFixNoise, MeasuresTheFixesNoiseNotTheOdometrysDrift) {
   }
   const double sxy = 0.002, sth = 0.005;
   std::mt19937 rng(3);
-  std::normal_distribution<double> g(0, 1);
+  odoerr::sim::NormalDist<double> g(0, 1);
   std::uniform_int_distribution<int> step(16, 24);  // 0.8-1.2 s at 20 Hz
   Odolog log = r.log;
   for (std::size_t k = 20; k < log.truth.size(); k += static_cast<std::size_t>(step(rng))) {

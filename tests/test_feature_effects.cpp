@@ -12,6 +12,7 @@
 #include "odoerr/effects/catalogue.hpp"
 #include "odoerr/effects/feature_effects.hpp"
 #include "odoerr/estimator.hpp"
+#include "odoerr/sim/random.hpp"
 
 namespace odoerr {
 namespace {
@@ -182,7 +183,7 @@ TEST(FeatureEffects, WheelSpeedErrorIsEstimatedFromADriveOfVaryingSpeed) {
   MotionContext<D> ctx;
   ctx.dt = FeatureDrive::kDt;
   std::mt19937 rng(3);
-  std::normal_distribution<D> noise(0, 0.03);
+  odoerr::sim::NormalDist<D> noise(0, 0.03);
   std::vector<D> ranges(36);
   const auto& lc = laser.config();
   for (int i = 0; i < 3000; ++i) {
@@ -277,7 +278,7 @@ TEST(FeatureEffects, IncidenceRangeErrorIsEstimated) {
   const D c_true = 0.05;
   Pose<D> truth{kPose0[0], kPose0[1], kPose0[2]};
   std::mt19937 rng(5);
-  std::normal_distribution<D> noise(0, 0.03);
+  odoerr::sim::NormalDist<D> noise(0, 0.03);
   std::vector<D> ranges(36);
   for (int i = 0; i < 3000; ++i) {
     const DiffDrive<D>::Input u = FeatureDrive::input(i);

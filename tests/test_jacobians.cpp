@@ -7,6 +7,7 @@
 #include "odoerr/akf.hpp"
 #include "odoerr/observables.hpp"
 #include "test_support.hpp"
+#include "odoerr/sim/random.hpp"
 
 using namespace odoerr;
 using LD = long double;
@@ -15,7 +16,7 @@ namespace {
 
 template <typename ModelT>
 typename ModelT::StateVec randomState(std::mt19937_64& rng, LD theta) {
-  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  odoerr::sim::UniformDist<double> u(-1.0, 1.0);
   typename ModelT::StateVec x;
   ModelT::setNominal(x);
   x[0] = LD(5.0 + 4.0 * u(rng));
@@ -141,7 +142,7 @@ TEST(Jacobians, RangeObservationWithMountOffset) {
   LaserGeometry<LD> geom;
   ASSERT_TRUE(geom.init(laser));
   std::mt19937_64 rng(5);
-  std::uniform_real_distribution<double> u(0.5, 9.5);
+  odoerr::sim::UniformDist<double> u(0.5, 9.5);
   int checked = 0;
   for (int trial = 0; trial < 40; ++trial) {
     const Pose<LD> p{LD(u(rng)), LD(u(rng)), kThetas[trial % 6]};

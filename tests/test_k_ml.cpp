@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "odoerr/sim/runner.hpp"
+#include "odoerr/sim/random.hpp"
 
 using namespace odoerr;
 using namespace odoerr::sim;
@@ -190,8 +191,8 @@ TEST(KMl, DiscountKeepsEThetaFromBelowSync) {
 // climbs by I d.
 TEST(KMl, ScaleShiftedScoreIsExactForEqualShares) {
   std::mt19937 rng(7);
-  std::normal_distribution<double> n01(0, 1);
-  std::uniform_real_distribution<double> u(0.2, 3.0);
+  odoerr::sim::NormalDist<double> n01(0, 1);
+  odoerr::sim::UniformDist<double> u(0.2, 3.0);
   const double kf = 2e-3;
   for (const double abar : {0.1, 0.5, 0.9, 1.0}) {
     for (const double d : {0.01, 0.5, 2.0, 4.6}) {

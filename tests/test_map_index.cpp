@@ -12,6 +12,7 @@
 #include "odoerr/estimator.hpp"
 #include "odoerr/map.hpp"
 #include "odoerr/sim/host_map.hpp"
+#include "odoerr/sim/random.hpp"
 
 using namespace odoerr;
 
@@ -21,7 +22,7 @@ namespace {
 /// some sharing end points (corners), plus the outer walls.
 std::vector<sim::OdologWall> randomBuilding(unsigned seed, int n) {
   std::mt19937 rng(seed);
-  std::uniform_real_distribution<double> ux(-20, 20), uy(-15, 15), len(0.1, 3.0), ang(-M_PI, M_PI);
+  odoerr::sim::UniformDist<double> ux(-20, 20), uy(-15, 15), len(0.1, 3.0), ang(-M_PI, M_PI);
   std::vector<sim::OdologWall> w = {{-20, -15, 20, -15}, {20, -15, 20, 15}, {20, 15, -20, 15}, {-20, 15, -20, -15}};
   for (int i = 0; i < n; ++i) {
     const double x = ux(rng), y = uy(rng), l = len(rng);
@@ -61,7 +62,7 @@ TEST(MapIndex, GridCastEqualsTestingEveryWall) {
       ASSERT_TRUE(grid.build(walls, cell, &err)) << err;
       ASSERT_GT(grid.grid().nx, 0);
       std::mt19937 rng(seed * 100 + unsigned(cell * 8));
-      std::uniform_real_distribution<double> ux(-25, 25), uy(-19, 19), ang(-M_PI, M_PI);
+      odoerr::sim::UniformDist<double> ux(-25, 25), uy(-19, 19), ang(-M_PI, M_PI);
       for (int r = 0; r < 4000; ++r) {
         // Origins inside and outside the grid's box; a few exactly axis-aligned rays.
         const double x = ux(rng), y = uy(rng);
@@ -229,7 +230,7 @@ TEST(MapIndex, OwnedIndexAndConstantTablesCastAlike) {
   SegmentMap<float, 512> brute;
   for (const auto& s : walls) ASSERT_TRUE(brute.add({float(s.x1), float(s.y1), float(s.x2), float(s.y2)}));
   std::mt19937 rng(5);
-  std::uniform_real_distribution<float> ux(-19.f, 19.f), uy(-14.f, 14.f), ang(-3.14f, 3.14f);
+  odoerr::sim::UniformDist<float> ux(-19.f, 19.f), uy(-14.f, 14.f), ang(-3.14f, 3.14f);
   int hits = 0;
   for (int r = 0; r < 2000; ++r) {
     const float x = ux(rng), y = uy(rng), a = ang(rng);

@@ -6,6 +6,7 @@
 #include <random>
 
 #include "odoerr/observables.hpp"
+#include "odoerr/sim/random.hpp"
 
 using namespace odoerr;
 using LD = long double;
@@ -28,7 +29,7 @@ struct McResult {
 /// radius `radius` (0 = straight), with the start heading 0.
 McResult syncMc(const SyncTruth& t, int steps, double radius, int samples, std::uint64_t seed) {
   std::mt19937_64 rng(seed);
-  std::normal_distribution<double> n01;
+  odoerr::sim::NormalDist<double> n01;
   const double ds = 0.01;
   const double corrected_per_step = radius > 0 ? ds * t.delta_rho / radius : 0.0;
   const double theta_e = corrected_per_step - t.e_theta * ds;  // raw encoder rotation
@@ -204,7 +205,7 @@ TEST(DiffObservable, Eq10MeanAndVarianceMatchMonteCarlo) {
   const DiffDrive<double>::Input u{right_true / dr, left_true / dl};
   for (int steps : {1, 500}) {
     std::mt19937_64 rng(31 + steps);
-    std::normal_distribution<double> n01;
+    odoerr::sim::NormalDist<double> n01;
     const int samples = steps == 1 ? 200000 : 20000;
     double s = 0, ss = 0;
     const auto var = drive.noiseVariance(u, DiffDrive<double>::NonSysVec(kw));

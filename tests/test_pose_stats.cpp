@@ -10,6 +10,7 @@
 
 #include "diagnose/physical.hpp"
 #include "odoerr/sim/stats.hpp"
+#include "odoerr/sim/random.hpp"
 
 using namespace odoerr::sim;
 using json = nlohmann::ordered_json;
@@ -19,8 +20,8 @@ namespace {
 /// n fixes whose innovations are drawn from N(0, S) with a random SPD S each (scale
 /// `cov_scale` on the S the filter reports: 1 = consistent).
 std::vector<PoseFixRec> drawFixes(std::mt19937& rng, int n, double cov_scale) {
-  std::normal_distribution<double> g(0, 1);
-  std::uniform_real_distribution<double> u(-3.14, 3.14), sd(0.002, 0.05);
+  odoerr::sim::NormalDist<double> g(0, 1);
+  odoerr::sim::UniformDist<double> u(-3.14, 3.14), sd(0.002, 0.05);
   std::vector<PoseFixRec> v;
   for (int k = 0; k < n; ++k) {
     Eigen::Matrix3d a;

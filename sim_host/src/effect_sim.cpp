@@ -9,6 +9,7 @@
 #include "odoerr/effects/catalogue.hpp"
 #include "odoerr/map.hpp"
 #include "odoerr/motion.hpp"
+#include "odoerr/sim/random.hpp"
 
 namespace odoerr::sim {
 
@@ -223,7 +224,7 @@ bool simulateEffectDrive(const EffectSimConfig& cfg, std::string* text, std::str
   line("init %.9g %.9g %.9g 0.005 0.005 0.005\n", truth.x, truth.y, truth.theta);
 
   std::mt19937_64 rng(cfg.seed * 0x9E3779B97F4A7C15ull + 17);
-  std::normal_distribution<double> n01(0.0, 1.0);
+  odoerr::sim::NormalDist<double> n01(0.0, 1.0);
   Pose<double> plan = truth;
   WheelMotionContext<double> ctx;  // what every catalogue effect may depend on
   ctx.dt = kDt;

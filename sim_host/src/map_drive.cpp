@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "odoerr/sim/odolog_writer.hpp"
+#include "odoerr/sim/random.hpp"
 
 namespace odoerr::sim {
 
@@ -25,7 +26,7 @@ MapDrive::MapDrive(const MapDriveConfig& cfg, const HostMap<double>& map, std::u
     return;
   }
   truth_ = {a.x, a.y, std::atan2(b.y - a.y, b.x - a.x)};
-  std::normal_distribution<double> n01(0.0, 1.0);
+  odoerr::sim::NormalDist<double> n01(0.0, 1.0);
   init_est_.x = truth_.x + cfg_.init_sigma_xy * n01(rng_);
   init_est_.y = truth_.y + cfg_.init_sigma_xy * n01(rng_);
   init_est_.theta = wrapAngle(truth_.theta + cfg_.init_sigma_theta * n01(rng_));
@@ -99,7 +100,7 @@ MapDriveStep MapDrive::step() {
   counts_ = out.counts;
   const DiffDrive<double>::NoiseVec var = drive_.noiseVariance(out.input, trueNonSys());
   DiffDrive<double>::NoiseVec nu;
-  std::normal_distribution<double> n01(0.0, 1.0);
+  odoerr::sim::NormalDist<double> n01(0.0, 1.0);
   for (int i = 0; i < 2; ++i) nu[i] = std::sqrt(var[i]) * n01(rng_);
   const Increment<double> inc =
       drive_.increment(out.input, DiffDrive<double>::ParamVec(cfg_.delta_r, cfg_.delta_l, cfg_.delta_d), nu);
@@ -127,7 +128,7 @@ MapDriveStep MapDrive::step() {
 void MapDrive::scan(const Pose<double>& p, std::vector<double>* ranges) {
   const auto& l = cfg_.laser;
   ranges->assign(std::size_t(l.beams), std::numeric_limits<double>::quiet_NaN());
-  std::normal_distribution<double> n01(0.0, 1.0);
+  odoerr::sim::NormalDist<double> n01(0.0, 1.0);
   const double c = std::cos(p.theta), sn = std::sin(p.theta);
   const double lx = p.x + c * l.mount_x - sn * l.mount_y;
   const double ly = p.y + sn * l.mount_x + c * l.mount_y;

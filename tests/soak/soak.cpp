@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "odoerr/sim/runner.hpp"
+#include "odoerr/sim/random.hpp"
 
 namespace odoerr::soak {
 namespace {
@@ -52,7 +53,7 @@ SoakResult run(const SoakOptions& o, const char* name) {
   r.nees_hi = chiSquareQuantile(0.999, N);
 
   std::mt19937_64 rng(o.seed ^ 0x50A4ull);
-  std::uniform_real_distribution<double> u01(0.0, 1.0);
+  odoerr::sim::UniformDist<double> u01(0.0, 1.0);
   const int beams = cfg.laser.beams;
   std::vector<S> ranges(static_cast<std::size_t>(beams));
   std::vector<int> kind(static_cast<std::size_t>(beams));  // 0 clean, 1 no return, 2 outlier

@@ -19,6 +19,7 @@
 #include "odoerr/sim/map_io.hpp"
 #include "odoerr/sim/odolog_writer.hpp"
 #include "odoerr/sim/paper_experiment.hpp"
+#include "odoerr/sim/random.hpp"
 
 namespace fs = std::filesystem;
 
@@ -95,7 +96,7 @@ int writeTape(const std::string& out, std::uint64_t seed, int steps, int record_
   fw::encodeHeader(h, reinterpret_cast<std::uint8_t*>(bytes.data()));
   TapeFaults tf;
   std::mt19937_64 frng(seed ^ 0x5eedfa17ULL);
-  std::uniform_real_distribution<double> unif(0.0, 1.0);
+  odoerr::sim::UniformDist<double> unif(0.0, 1.0);
   int burst_left = 0;
   StepSink<DriveT<double>> sink = [&](const SimStep<DriveT<double>>& st) {
     std::uint8_t b[4 * (2 + kMaxBeams)];

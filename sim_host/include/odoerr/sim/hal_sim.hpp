@@ -25,6 +25,7 @@
 #include "odoerr/hal/telemetry_sink.hpp"
 #include "odoerr/sim/lms2xx_writer.hpp"
 #include "odoerr/sim/paper_sim.hpp"
+#include "odoerr/sim/random.hpp"
 
 namespace odoerr::sim {
 
@@ -104,7 +105,7 @@ class SimSerialPort final : public hal::SerialPort {
   /// Returns the number of bytes the line dropped or corrupted.
   std::size_t transmit(const std::uint8_t* data, std::size_t n, std::uint64_t t_us) {
     const std::uint64_t before = dropped_ + corrupted_;
-    std::uniform_real_distribution<double> u(0.0, 1.0);
+    odoerr::sim::UniformDist<double> u(0.0, 1.0);
     std::uniform_int_distribution<int> bit(0, 7);
     std::uint64_t t = std::max(t_us, line_free_us_);
     for (std::size_t i = 0; i < n; ++i) {
@@ -224,7 +225,7 @@ class HalSimDrive {
       seg_start_us_ = next_start_us_;
       next_start_us_ += opt_.step_us;
       steps_.push_back(st);
-      std::uniform_real_distribution<double> u01(0.0, 1.0);
+      odoerr::sim::UniformDist<double> u01(0.0, 1.0);
       const int k = int(steps_.size()) - 1;
       const bool silent = opt_.laser_silent_from_step >= 0 && k >= opt_.laser_silent_from_step &&
                           k < opt_.laser_silent_from_step + opt_.laser_silent_steps;

@@ -21,6 +21,7 @@
 #include "odoerr/akf.hpp"
 #include "odoerr/map.hpp"
 #include "odoerr/motion.hpp"
+#include "odoerr/sim/random.hpp"
 
 namespace odoerr::sim {
 
@@ -103,7 +104,7 @@ class PaperSim {
       truth_.theta = wrapAngle(cfg_.start_polar_rad + kPi<double> / 2);
     }
     if constexpr (!kSync) drive_.wheelbase = cfg_.wheelbase_m;
-    std::normal_distribution<double> n01(0.0, 1.0);
+    odoerr::sim::NormalDist<double> n01(0.0, 1.0);
     init_est_.x = truth_.x + cfg_.init_sigma_xy * n01(rng_);
     init_est_.y = truth_.y + cfg_.init_sigma_xy * n01(rng_);
     init_est_.theta = wrapAngle(truth_.theta + cfg_.init_sigma_theta * n01(rng_));
@@ -172,7 +173,7 @@ class PaperSim {
     // True motion drawn from the error model given the readings.
     const typename Drive::NoiseVec var = drive_.noiseVariance(out.input, trueNonSys());
     typename Drive::NoiseVec nu;
-    std::normal_distribution<double> n01(0.0, 1.0);
+    odoerr::sim::NormalDist<double> n01(0.0, 1.0);
     for (int i = 0; i < Drive::kNoise; ++i) nu[i] = std::sqrt(var[i]) * n01(rng_);
     Drive truth_drive = drive_;
     const Increment<double> inc = truth_drive.increment(out.input, trueParams(), nu);
@@ -191,7 +192,7 @@ class PaperSim {
   /// Simulated ranges from a pose (nan where the beam hits nothing).
   void scan(const Pose<double>& p, double* ranges) {
     const auto& l = cfg_.laser;
-    std::normal_distribution<double> n01(0.0, 1.0);
+    odoerr::sim::NormalDist<double> n01(0.0, 1.0);
     const double c = std::cos(p.theta);
     const double sn = std::sin(p.theta);
     const double lx = p.x + c * l.mount_x - sn * l.mount_y;
