@@ -30,6 +30,7 @@
 #include <cstdint>
 
 #include "odoerr/hal/param_store.hpp"
+#include "odoerr/hal/power_loss.hpp"
 #include "odoerr/hal/status.hpp"
 
 namespace odoerr::hal {
@@ -41,27 +42,18 @@ class FakeParamStore final : public ParamStore {
                 "size must be a positive multiple of the sector size");
 
  public:
-  explicit FakeParamStore(std::uint32_t garbage_seed = 0x9E3779B9u)
-      : rng_(garbage_seed == 0 ? 1u : garbage_seed) {
-    mem_.fill(0xFF);
-  }
+  explicit FakeParamStore(std::uint32_t garbage_seed = 0x9E3779B9u) : power_(garbage_seed) { mem_.fill(0xFF); }
 
   /// Arms a power loss: `byte_ops` more byte-operations (programmed bytes; an erase counts
   /// as one) complete, the next one is interrupted. Re-arming replaces the budget.
-  void powerLossAfter(std::size_t byte_ops) {
-    armed_ = true;
-    budget_ = byte_ops;
-  }
+  void powerLossAfter(std::size_t byte_ops) { power_.after(byte_ops); }
   /// Cancels a pending (not yet triggered) power loss.
-  void disarm() { armed_ = false; }
+  void disarm() { power_.disarm(); }
   /// Simulated reboot: the store works again with its content preserved; injection disarmed.
-  void powerOn() {
-    powered_ = true;
-    armed_ = false;
-  }
-  bool poweredOn() const { return powered_; }
+  void powerOn() { power_.powerOn(); }
+  bool poweredOn() const { return power_.powered(); }
   /// Number of power losses that have happened so far.
-  std::size_t powerLosses() const { return power_losses_; }
+  std::size_t powerLosses() const { return power_.losses(); }
 
   /// Completed byte-operations (programmed bytes + erases) since construction/resetCounters().
   std::size_t byteOps() const { return programmed_bytes_ + erases_; }
@@ -84,12 +76,10 @@ class FakeParamStore final : public ParamStore {
   std::size_t DoSectorSize() const override { return kSectorSize; }
 
   Status DoErase(std::size_t index) override {
-    if (!powered_) return Status::kInternal;
+    if (!power_.powered()) return Status::kInternal;
     const std::size_t base = index * kSectorSize;
-    if (interruptNow()) {
-      for (std::size_t i = 0; i < kSectorSize; ++i) {
-        mem_[base + i] = static_cast<std::uint8_t>(mem_[base + i] | garbage());
-      }
+    if (power_.interruptNow()) {
+      for (std::size_t i = 0; i < kSectorSize; ++i) mem_[base + i] = power_.partialErase(mem_[base + i]);
       return Status::kInternal;
     }
     for (std::size_t i = 0; i < kSectorSize; ++i) mem_[base + i] = 0xFF;
@@ -98,7 +88,7 @@ class FakeParamStore final : public ParamStore {
   }
 
   Status DoProgram(std::size_t offset, const std::uint8_t* data, std::size_t n) override {
-    if (!powered_) return Status::kInternal;
+    if (!power_.powered()) return Status::kInternal;
     for (std::size_t i = 0; i < n; ++i) {
       if (static_cast<std::uint8_t>(mem_[offset + i] & data[i]) != data[i]) {
         return Status::kFailedPrecondition;
@@ -106,15 +96,8 @@ class FakeParamStore final : public ParamStore {
     }
     for (std::size_t i = 0; i < n; ++i) {
       std::uint8_t& cell = mem_[offset + i];
-      if (interruptNow()) {
-        const std::uint8_t target = static_cast<std::uint8_t>(cell & data[i]);
-        std::uint8_t partial = static_cast<std::uint8_t>(cell & (data[i] | garbage()));
-        const std::uint8_t to_clear = static_cast<std::uint8_t>(cell & ~target);
-        if (partial == target && to_clear != 0) {
-          // Never complete the byte in progress: keep its lowest bit-to-clear set.
-          partial = static_cast<std::uint8_t>(partial | (to_clear & (~to_clear + 1u)));
-        }
-        cell = partial;
+      if (power_.interruptNow()) {
+        cell = power_.partialProgram(cell, data[i]);
         return Status::kInternal;
       }
       cell = static_cast<std::uint8_t>(cell & data[i]);
@@ -124,39 +107,15 @@ class FakeParamStore final : public ParamStore {
   }
 
   Status DoRead(std::size_t offset, std::uint8_t* out, std::size_t n) const override {
-    if (!powered_) return Status::kInternal;
+    if (!power_.powered()) return Status::kInternal;
     for (std::size_t i = 0; i < n; ++i) out[i] = mem_[offset + i];
     return Status::kOk;
   }
 
-  // Consumes one unit of budget; true when the current operation is the interrupted one.
-  bool interruptNow() {
-    if (!armed_) return false;
-    if (budget_ > 0) {
-      --budget_;
-      return false;
-    }
-    armed_ = false;
-    powered_ = false;
-    ++power_losses_;
-    return true;
-  }
-
-  std::uint8_t garbage() {  // xorshift32, deterministic per seed
-    rng_ ^= rng_ << 13;
-    rng_ ^= rng_ >> 17;
-    rng_ ^= rng_ << 5;
-    return static_cast<std::uint8_t>(rng_ >> 24);
-  }
-
   std::array<std::uint8_t, kSize> mem_{};
-  std::uint32_t rng_;
-  std::size_t budget_ = 0;
+  PowerLoss power_;
   std::size_t programmed_bytes_ = 0;
   std::size_t erases_ = 0;
-  std::size_t power_losses_ = 0;
-  bool armed_ = false;
-  bool powered_ = true;
 };
 
 }  // namespace odoerr::hal
