@@ -2,7 +2,7 @@
 # Builds everything and runs all tests: the host suite (unit, Monte Carlo, CLI, the paper
 # acceptance run), then the Cortex-M4F images under QEMU against the host's references, then
 # the fuzz targets (preset fuzz, clang + libFuzzer + ASan/UBSan): each replays its corpus
-# and runs 10 s from it (ctest label fuzz; docs/reliability.md, "Fuzzing"), then the parser,
+# and runs 5 s from it (ctest label fuzz; docs/reliability.md, "Fuzzing"), then the parser,
 # driver, firmware and map-index suites under ASan + UBSan (preset host-asan-ci; "Sanitizers"). The
 # host suite includes the float32 soak (label soak, 10^6 cycles per drive, about 15 s) and
 # the firmware fault table (test_firmware_faults).
