@@ -215,9 +215,25 @@ TEST(Stm32EncoderTimer, ALostSetUpIsAFaultNotACount) {
   EXPECT_EQ(enc.read(&count), Status::kInternal);
 }
 
+TEST(Stm32MicrosecondClock, SixteenBitTimerExtendedThroughItsWraps) {
+  st::GpTimerRegs regs{};
+  st::Stm32MicrosecondClock clock(regs, 16);
+  ASSERT_EQ(clock.configure(84000000u), Status::kOk);
+  EXPECT_EQ(regs.arr, 0xFFFFu);
+  std::uint64_t expected = 0;
+  std::uint32_t cnt = 0;
+  for (int i = 0; i < 1000; ++i) {  // steps below one wrap, about 33 s in all
+    const std::uint32_t step = 1000u + static_cast<std::uint32_t>(i) * 61u;
+    cnt = (cnt + step) & 0xFFFFu;
+    expected += step;
+    regs.cnt = cnt;
+    ASSERT_EQ(clock.nowUs(), expected) << "read " << i;
+  }
+}
+
 TEST(Stm32MicrosecondClock, OneMegahertzAndNeverBackwardsThroughTheWrap) {
   st::GpTimerRegs regs{};
-  st::Stm32MicrosecondClock clock(regs);
+  st::Stm32MicrosecondClock clock(regs, 32);
   ASSERT_EQ(clock.configure(84000000u), Status::kOk);
   EXPECT_EQ(regs.psc, 83u);  // 84 MHz / 84 = 1 MHz
   EXPECT_EQ(regs.arr, 0xFFFFFFFFu);

@@ -5,8 +5,9 @@
 // Encoder mode 3 counts every edge of both channels (4 counts a line) up or down by the
 // direction; the counter wraps at 2^32, and the firmware's encoder driver takes wrap-safe
 // differences of what read() returns (odoerr/drivers/encoder.hpp), so the 32-bit count needs no
-// extension. The clock extends its 32-bit counter to 64 bits on read: it must be read at
-// least once per wrap (2^32 us, 71.6 minutes), which the 1 cm cycle does many times a second.
+// extension. The F405 has two 32-bit timers (TIM2, TIM5), both taken by the wheels, so the
+// clock runs on a 16-bit one (TIM3 or TIM4) and extends it to 64 bits on read: it must be
+// read at least once per wrap (65.5 ms at 1 MHz), which the main loop's 1 ms poll does.
 #pragma once
 
 #include <cstdint>
@@ -59,16 +60,18 @@ class Stm32EncoderTimer final : public hal::EncoderCounter {
 
 class Stm32MicrosecondClock final : public hal::Clock {
  public:
-  explicit Stm32MicrosecondClock(GpTimerRegs& regs) : regs_(regs) {}
+  /// `bits`: the timer's width, 16 (TIM3, TIM4) or 32 (TIM2, TIM5).
+  Stm32MicrosecondClock(GpTimerRegs& regs, std::uint8_t bits)
+      : regs_(regs), mask_(bits >= 32 ? 0xFFFFFFFFu : (1u << bits) - 1u) {}
 
   /// Counts up at 1 MHz from a timer clock of `f_timer_hz` (a whole number of MHz),
-  /// free-running over 32 bits. kInvalidArgument otherwise.
+  /// free-running over the timer's width. kInvalidArgument otherwise.
   [[nodiscard]] hal::Status configure(std::uint32_t f_timer_hz) {
     if (f_timer_hz < 1000000u || f_timer_hz % 1000000u != 0) return hal::Status::kInvalidArgument;
     regs_.cr1 = 0;
     regs_.smcr = regs_.smcr & ~tim::kSmcrSmsMask;  // internal clock
     regs_.psc = f_timer_hz / 1000000u - 1u;
-    regs_.arr = 0xFFFFFFFFu;
+    regs_.arr = mask_;
     regs_.egr = tim::kEgrUg;  // loads PSC now (it is buffered until an update)
     regs_.cnt = 0;
     last_ = 0;  // the count goes on from where it was: never backwards
@@ -78,14 +81,16 @@ class Stm32MicrosecondClock final : public hal::Clock {
 
  private:
   std::uint64_t DoNowUs() const override {
-    const std::uint32_t now = regs_.cnt;
-    // Wrap-safe: the 32-bit difference since the last read, added to the 64-bit count.
-    total_ += static_cast<std::uint32_t>(now - last_);
+    const std::uint32_t now = regs_.cnt & mask_;
+    // Wrap-safe: the difference since the last read, modulo the timer's width, added to the
+    // 64-bit count.
+    total_ += (now - last_) & mask_;
     last_ = now;
     return total_;
   }
 
   GpTimerRegs& regs_;
+  std::uint32_t mask_;
   mutable std::uint32_t last_ = 0;
   mutable std::uint64_t total_ = 0;
 };
