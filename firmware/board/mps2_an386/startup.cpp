@@ -3,6 +3,7 @@
 #include <cstdint>
 
 #include "board.hpp"
+#include "cortex_m_vectors.hpp"
 #include "semihosting.hpp"
 
 extern "C" {
@@ -22,18 +23,7 @@ void Fault_Handler() { odoerr::board::shExit(97); }
 
 __attribute__((section(".isr_vector"), used)) void (*const g_vectors[16])() = {
     reinterpret_cast<void (*)()>(&_estack),
-    Reset_Handler,
-    Fault_Handler,  // NMI
-    Fault_Handler,  // HardFault
-    Fault_Handler,  // MemManage
-    Fault_Handler,  // BusFault
-    Fault_Handler,  // UsageFault
-    nullptr, nullptr, nullptr, nullptr,
-    Fault_Handler,  // SVC
-    Fault_Handler,  // DebugMon
-    nullptr,
-    Fault_Handler,  // PendSV
-    Fault_Handler,  // SysTick
+    ODOERR_CORTEX_M_EXCEPTIONS(Reset_Handler, Fault_Handler),
 };
 
 void Reset_Handler() {

@@ -6,6 +6,7 @@
 #include <cstddef>
 #include <cstdint>
 
+#include "cortex_m_vectors.hpp"
 #include "semihosting.hpp"
 
 extern "C" {
@@ -50,20 +51,7 @@ static_assert(offsetof(Vectors, irq) == 16 * sizeof(Handler) && sizeof(Vectors) 
 
 __attribute__((section(".isr_vector"), used)) const Vectors g_vectors = {
     &_estack,
-    {
-        Reset_Handler,
-        Fault_Handler,  // NMI
-        Fault_Handler,  // HardFault
-        Fault_Handler,  // MemManage
-        Fault_Handler,  // BusFault
-        Fault_Handler,  // UsageFault
-        nullptr, nullptr, nullptr, nullptr,
-        Fault_Handler,  // SVC
-        Fault_Handler,  // DebugMon
-        nullptr,
-        Fault_Handler,  // PendSV
-        Fault_Handler,  // SysTick
-    },
+    {ODOERR_CORTEX_M_EXCEPTIONS(Reset_Handler, Fault_Handler)},
     interruptTable(),
 };
 
