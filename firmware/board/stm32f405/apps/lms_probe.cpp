@@ -3,8 +3,9 @@
 // encoder mode and TIM3 as the microsecond clock, reads their registers back, then parses
 // what arrives on USART1 until the line has been quiet for a while, and writes its report
 // (lms_probe_report.hpp) to probe.txt through semihosting. QEMU feeds USART1 from a file the
-// host wrote (lms_stream.cpp), a second after start: as on the chip, bytes that arrive before
-// the receiver is enabled are lost. ctest compares the report with the host's.
+// host wrote (lms_stream.cpp) once the image has sent its ready byte: as on the chip, bytes
+// that arrive before the receiver is enabled are lost. ctest compares the report with the
+// host's.
 //
 // Exit codes: 0 report written; 2 the USART, a timer or the clock refused its set-up; 3 a
 // register read back is not what the driver wrote (the peripheral is not where RM0090 puts
@@ -71,6 +72,11 @@ int main() {
 
   g_laser = &laser;
   st::enableInterrupt(kUsart1Irq);
+  // Ready: one byte out on USART1's transmit line, which the test's feeder waits for before
+  // it sends the stream (what arrives before the receiver is on is lost, as on the chip).
+  const std::uint8_t ready = 'R';
+  std::size_t sent = 0;
+  if (laser.write(&ready, 1, &sent) != odoerr::hal::Status::kOk) return 2;
 
   odoerr::drivers::Lms2xxConfig cfg;
   cfg.baud = 500000;
