@@ -14,10 +14,14 @@
 #include "odoerr/drivers/calibration_store.hpp"
 #include "odoerr/hal/fake_param_store.hpp"
 
+#include "calibration_test_util.hpp"
 #include "heap_counter.hpp"  // the counting operator new, armed around the code under test
 
 using odoerr::test::g_heap_allocs;
 using odoerr::test::g_heap_armed;
+using odoerr::test::bitsOf;
+using odoerr::test::makeCal;
+using odoerr::test::same;
 
 using odoerr::drivers::Calibration;
 using odoerr::drivers::CalibrationStore;
@@ -29,39 +33,6 @@ namespace {
 constexpr std::size_t kSector = 128;
 using Flash = odoerr::hal::FakeParamStore<4 * kSector, kSector>;
 constexpr std::size_t kRec = CalibrationStore::kRecordSize;
-
-std::uint32_t bitsOf(float f) {
-  std::uint32_t u;
-  std::memcpy(&u, &f, sizeof u);
-  return u;
-}
-
-// Field-by-field, bit-exact comparison (no memcmp: the struct may have padding).
-::testing::AssertionResult same(const Calibration& a, const Calibration& b) {
-  if (a.drive != b.drive || a.count != b.count) {
-    return ::testing::AssertionFailure() << "drive/count differ: " << int(a.drive) << "/"
-                                         << int(a.count) << " vs " << int(b.drive) << "/"
-                                         << int(b.count);
-  }
-  for (std::size_t i = 0; i < Calibration::kMaxParams; ++i) {
-    if (bitsOf(a.value[i]) != bitsOf(b.value[i]) ||
-        bitsOf(a.variance[i]) != bitsOf(b.variance[i])) {
-      return ::testing::AssertionFailure() << "entry " << i << " differs";
-    }
-  }
-  return ::testing::AssertionSuccess();
-}
-
-Calibration makeCal(std::uint8_t drive, float base) {
-  Calibration c{};
-  c.drive = drive;
-  c.count = 8;
-  for (std::size_t i = 0; i < Calibration::kMaxParams; ++i) {
-    c.value[i] = base + 0.125f * static_cast<float>(i);
-    c.variance[i] = 1.0e-4f * static_cast<float>(i + 1) + base * 1.0e-6f;
-  }
-  return c;
-}
 
 Calibration extremeCal() {
   Calibration c{};

@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "calibration_test_util.hpp"
 #include "odoerr/drivers/calibration_store.hpp"
 #include "odoerr/drivers/lms2xx.hpp"
 #include "odoerr/sim/lms2xx_writer.hpp"
@@ -255,6 +256,8 @@ using FlashStore = st::Stm32FlashParamStore<FlashModel>;
 using odoerr::drivers::Calibration;
 using odoerr::drivers::CalibrationStore;
 using odoerr::drivers::LoadResult;
+using odoerr::test::makeCal;
+using odoerr::test::same;
 
 TEST(Stm32Flash, EraseProgramAndReadUnderTheControllersRules) {
   FlashModel m;
@@ -296,28 +299,10 @@ TEST(Stm32Flash, AnErrorFlagOrAControllerLockedUntilResetIsAFault) {
   EXPECT_EQ(m.raw(1), 0x00);
 }
 
-Calibration boardCal(std::uint8_t drive, float base) {
-  Calibration c{};
-  c.drive = drive;
-  c.count = 5;
-  for (int i = 0; i < 5; ++i) {
-    c.value[i] = base + 0.125f * static_cast<float>(i);
-    c.variance[i] = 1e-4f * static_cast<float>(i + 1);
-  }
-  return c;
-}
-bool sameCal(const Calibration& a, const Calibration& b) {
-  if (a.drive != b.drive || a.count != b.count) return false;
-  for (int i = 0; i < a.count; ++i) {
-    if (a.value[i] != b.value[i] || a.variance[i] != b.variance[i]) return false;
-  }
-  return true;
-}
-
 // The calibration store's guarantee on this board: power lost at any byte-operation of a
 // save leaves the previous record or the new one, never nothing and never a mixture.
 TEST(Stm32Flash, PowerLostAtEveryStepOfASaveKeepsARecord) {
-  const Calibration A = boardCal(1, 1.0f), B = boardCal(1, 2.0f);
+  const Calibration A = makeCal(1, 1.0f), B = makeCal(1, 2.0f);
   FlashModel with_a;
   {
     FlashStore fs(with_a);
@@ -361,10 +346,10 @@ TEST(Stm32Flash, PowerLostAtEveryStepOfASaveKeepsARecord) {
     CalibrationStore cs(fs);
     Calibration out{};
     ASSERT_EQ(cs.load(&out), LoadResult::kRestored) << "calibration lost at k " << k;
-    if (sameCal(out, B)) {
+    if (same(out, B)) {
       ++new_kept;
     } else {
-      ASSERT_TRUE(sameCal(out, A)) << "a mixture at k " << k;
+      ASSERT_TRUE(same(out, A)) << "a mixture at k " << k;
       EXPECT_NE(saved, Status::kOk);
       ++old_kept;
     }

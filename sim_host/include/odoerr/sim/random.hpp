@@ -28,7 +28,7 @@ T canonical(Engine& engine) {
   static_assert(kMax == 0xffffffffULL || kMax == 0xffffffffffffffffULL, "canonical: a 32- or 64-bit engine");
   constexpr int kBits = kMax == 0xffffffffULL ? 32 : 64;
   constexpr int kDigits = std::numeric_limits<T>::digits;
-  constexpr int kWords = (kDigits + kBits - 1) / kBits > 1 ? (kDigits + kBits - 1) / kBits : 1;
+  constexpr int kWords = (kDigits + kBits - 1) / kBits;  // at least 1: kDigits >= 1
   const T range = kBits == 32 ? T(4294967296.0) : T(18446744073709551616.0);
   T sum = T(0);
   T scale = T(1);
