@@ -1,5 +1,6 @@
 // File I/O for the replay applications: stdio-free POSIX calls on the host, semihosting on
-// the mps2-an386 board (same names: tape in, results out, in the working directory).
+// the boards under QEMU (mps2-an386, STM32F405): same names, tape in, results out, in the
+// working directory.
 #pragma once
 
 #include <cstddef>
@@ -7,9 +8,10 @@
 
 #include "odoerr/fw/tape.hpp"
 
-#if defined(ODOERR_TARGET_MPS2)
-#include "board.hpp"
+#if defined(ODOERR_TARGET_MPS2) || defined(ODOERR_BOARD_STM32F405)
+#define ODOERR_REPLAY_SEMIHOSTING 1
 #include "semihosting.hpp"
+#include "stack_paint.hpp"
 #else
 #include <fcntl.h>
 #include <unistd.h>
@@ -17,7 +19,7 @@
 
 namespace odoerr::replay_io {
 
-#if defined(ODOERR_TARGET_MPS2)
+#if defined(ODOERR_REPLAY_SEMIHOSTING)
 inline int openRead(const char* p) { return board::shOpen(p, board::FileMode::kReadBinary); }
 inline int openWrite(const char* p) { return board::shOpen(p, board::FileMode::kWriteBinary); }
 inline std::size_t read(int h, void* b, std::size_t n) { return board::shRead(h, b, n); }
@@ -46,7 +48,7 @@ struct Paths {
   const char* out;
 };
 inline Paths paths(int argc, char** argv, const char* in, const char* out) {
-#if !defined(ODOERR_TARGET_MPS2)
+#if !defined(ODOERR_REPLAY_SEMIHOSTING)
   if (argc >= 3) return {argv[1], argv[2]};
 #else
   (void)argc;

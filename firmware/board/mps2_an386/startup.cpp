@@ -5,18 +5,15 @@
 #include "board.hpp"
 #include "cortex_m_vectors.hpp"
 #include "semihosting.hpp"
+#include "stack_paint.hpp"
 
 extern "C" {
-extern std::uint32_t _sidata, _sdata, _edata, _sbss, _ebss, _sstack, _estack;
+extern std::uint32_t _sidata, _sdata, _edata, _sbss, _ebss;
 extern void (*__init_array_start[])();
 extern void (*__init_array_end[])();
 int odoerr_call_main();
 void Reset_Handler();
 void Fault_Handler();
-}
-
-namespace {
-constexpr std::uint32_t kStackPaint = 0xC0FFEE5Au;
 }
 
 void Fault_Handler() { odoerr::board::shExit(97); }
@@ -33,18 +30,7 @@ void Reset_Handler() {
   __asm__ volatile("dsb\n isb" ::: "memory");
   for (std::uint32_t *src = &_sidata, *dst = &_sdata; dst < &_edata;) *dst++ = *src++;
   for (std::uint32_t* dst = &_sbss; dst < &_ebss;) *dst++ = 0;
-  // Paint the stack below the current frame.
-  std::uint32_t* sp;
-  __asm__ volatile("mov %0, sp" : "=r"(sp));
-  for (std::uint32_t* p = &_sstack; p < sp - 16; ++p) *p = kStackPaint;
+  odoerr::board::paintStack();
   for (auto* f = __init_array_start; f < __init_array_end; ++f) (*f)();
   odoerr::board::shExit(odoerr_call_main());
 }
-
-namespace odoerr::board {
-std::uint32_t stackHighWaterBytes() {
-  const std::uint32_t* p = &_sstack;
-  while (p < &_estack && *p == kStackPaint) ++p;
-  return static_cast<std::uint32_t>(reinterpret_cast<const char*>(&_estack) - reinterpret_cast<const char*>(p));
-}
-}  // namespace odoerr::board
