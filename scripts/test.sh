@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Builds everything and runs all tests: the host suite (unit, Monte Carlo, CLI, the paper
 # acceptance run), then the Cortex-M4F images under QEMU against the host's references, the
-# STM32F405 board's probe under QEMU netduinoplus2 (docs/porting.md), then
+# STM32F405 board's images under QEMU netduinoplus2 (docs/porting.md), then
 # the fuzz targets (preset fuzz, clang + libFuzzer + ASan/UBSan): each replays its corpus
 # and runs 5 s from it (ctest label fuzz; docs/reliability.md, "Fuzzing"), then the parser,
 # driver, firmware and map-index suites under ASan + UBSan (preset host-asan-ci; "Sanitizers"). The

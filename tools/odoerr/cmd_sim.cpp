@@ -140,15 +140,23 @@ int writeTape(const std::string& out, std::uint64_t seed, int steps, int record_
   return 0;
 }
 
+/// Faults a HAL tape records: the laser line's (per byte) and the encoders'.
+struct HalTapeFaults {
+  double corrupt = 0.0;   ///< probability that a laser byte has a bit flipped
+  double drop = 0.0;      ///< probability that a laser byte is lost on the line
+  int encoder_faults = 0; ///< this many one-read glitches (+/-30,000 ticks) and as many lasting jumps (+5,000)
+};
+
 /// Records what the HAL devices show the firmware at each 1 ms poll of a simulated drive
 /// (counters, laser bytes), for the firmware image's replay (firmware/apps/fw_replay).
 template <template <typename> class DriveT>
-int writeHalTape(const std::string& out, std::uint64_t seed, int steps, double corrupt) {
+int writeHalTape(const std::string& out, std::uint64_t seed, int steps, const HalTapeFaults& faults) {
   using D = DriveT<double>;
   SimConfig cfg;
   cfg.radius = 4.5;  // clear of the walls (see tests/test_firmware_app.cpp)
   typename HalSimDrive<D>::Options opt;
-  opt.faults.corrupt_probability = corrupt;
+  opt.faults.corrupt_probability = faults.corrupt;
+  opt.faults.drop_probability = faults.drop;
   HalSimDrive<D> world(cfg, seed, opt);
   fw::HalTapeHeader h;
   h.drive = PaperSim<D>::kSync ? 0 : 1;
@@ -166,8 +174,22 @@ int writeHalTape(const std::string& out, std::uint64_t seed, int steps, double c
   std::string bytes(fw::kHalTapeHeaderBytes, '\0');
   std::uint32_t polls = 0;
   const std::uint64_t end_us = std::uint64_t(steps) * opt.step_us;
+  // The encoder faults at evenly spaced polls after the first second, wheel A and B in turn:
+  // fault i is a glitch when i is even, a lasting jump when it is odd.
+  const int n_enc = 2 * faults.encoder_faults;
+  const std::uint64_t enc_every_ms = n_enc > 0 ? (end_us / 1000 - 1000) / std::uint64_t(n_enc + 1) : 0;
+  int enc_done = 0;
   for (std::uint64_t t = 0; t <= end_us; t += 1000) {
     world.advanceTo(t);
+    if (enc_done < n_enc && t / 1000 == 1000 + enc_every_ms * std::uint64_t(enc_done + 1)) {
+      SimEncoderCounter& e = (enc_done / 2) % 2 == 0 ? world.encoderA() : world.encoderB();
+      if (enc_done % 2 == 0) {
+        e.glitchNextRead((enc_done / 2) % 2 == 0 ? 30000 : -30000);
+      } else {
+        e.jump(5000);
+      }
+      ++enc_done;
+    }
     std::uint32_t ra = 0;
     std::uint32_t rb = 0;
     (void)world.encoderA().read(&ra);
@@ -398,7 +420,7 @@ void registerSimCommands(CLI::App& app, cli::Commands& cmds) {
     std::string drive = "diff", out;
     std::uint64_t seed = 1;
     int steps = 3000;
-    double corrupt = 0.0;
+    HalTapeFaults faults;
   };
   auto ho = std::make_shared<HalOpts>();
   auto* haltape = app.add_subcommand("hal-tape", "record the HAL devices of a simulated drive (firmware image tests)");
@@ -406,11 +428,16 @@ void registerSimCommands(CLI::App& app, cli::Commands& cmds) {
   haltape->add_option("--out", ho->out, "tape file to write")->required();
   haltape->add_option("--seed", ho->seed, "random seed");
   haltape->add_option("--steps", ho->steps, "cm of travel")->check(CLI::Range(1, 1000000));
-  haltape->add_option("--corrupt", ho->corrupt, "probability that a laser byte is corrupted")
+  haltape->add_option("--corrupt", ho->faults.corrupt, "probability that a laser byte is corrupted")
       ->check(CLI::Range(0.0, 1.0));
+  haltape->add_option("--drop", ho->faults.drop, "probability that a laser byte is lost on the line")
+      ->check(CLI::Range(0.0, 1.0));
+  haltape->add_option("--encoder-faults", ho->faults.encoder_faults,
+                      "N one-read glitches of +/-30000 ticks and N lasting jumps of +5000 ticks")
+      ->check(CLI::Range(0, 100));
   cmds.add(haltape, [ho]() {
-    return ho->drive == "sync" ? writeHalTape<SyncDrive>(ho->out, ho->seed, ho->steps, ho->corrupt)
-                               : writeHalTape<DiffDrive>(ho->out, ho->seed, ho->steps, ho->corrupt);
+    return ho->drive == "sync" ? writeHalTape<SyncDrive>(ho->out, ho->seed, ho->steps, ho->faults)
+                               : writeHalTape<DiffDrive>(ho->out, ho->seed, ho->steps, ho->faults);
   });
 }
 

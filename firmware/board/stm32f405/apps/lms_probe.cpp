@@ -12,17 +12,14 @@
 // it); 4 probe.txt cannot be written.
 #include <cstdint>
 
-#include "board.hpp"
 #include "lms_probe_report.hpp"
+#include "robot_io.hpp"
 #include "semihosting.hpp"
-#include "stm32_timers.hpp"
-#include "stm32_usart.hpp"
 
 namespace st = odoerr::board::stm32f405;
 
 namespace {
 st::Stm32UsartPort<2048>* g_laser = nullptr;
-constexpr int kUsart1Irq = 37;
 // Main-loop passes to wait for the line's first byte, and passes with no new byte after
 // which the line is taken as finished.
 constexpr std::uint32_t kFirstBytePolls = 400000000u;
@@ -35,16 +32,7 @@ extern "C" void USART1_IRQHandler() {
 
 int main() {
   const st::ClockTree clk = st::configureClocks(8000000u);
-  st::RccRegs& rcc = st::at<st::RccRegs>(st::kRccBase);
-  rcc.ahb1enr = rcc.ahb1enr | st::rcc::kAhb1GpioAEn | st::rcc::kAhb1GpioBEn;
-  rcc.apb2enr = rcc.apb2enr | st::rcc::kApb2Usart1En;
-  rcc.apb1enr = rcc.apb1enr | st::rcc::kApb1Tim2En | st::rcc::kApb1Tim3En | st::rcc::kApb1Tim5En;
-  st::pinAlternate(0, 9, 7);   // PA9  USART1_TX, AF7
-  st::pinAlternate(0, 10, 7);  // PA10 USART1_RX, AF7
-  st::pinAlternate(0, 15, 1);  // PA15 TIM2_CH1, AF1
-  st::pinAlternate(1, 3, 1);   // PB3  TIM2_CH2, AF1
-  st::pinAlternate(0, 0, 2);   // PA0  TIM5_CH1, AF2
-  st::pinAlternate(0, 1, 2);   // PA1  TIM5_CH2, AF2
+  st::enableRobotPeripherals();
 
   st::UsartRegs& u1 = st::at<st::UsartRegs>(st::kUsart1Base);
   // Objects of main (a static with a destructor would need __cxa_atexit, which the board
@@ -55,23 +43,20 @@ int main() {
   st::Stm32EncoderTimer left(t2);
   st::Stm32EncoderTimer right(t5);
   st::Stm32MicrosecondClock clock(st::at<st::GpTimerRegs>(st::kTim3Base), 16);
-  if (laser.configure(clk.pclk2_hz, 500000u) != odoerr::hal::Status::kOk ||
+  if (laser.configure(clk.pclk2_hz, st::kLaserBaud) != odoerr::hal::Status::kOk ||
       left.configure(3, false) != odoerr::hal::Status::kOk || right.configure(3, true) != odoerr::hal::Status::kOk ||
       clock.configure(clk.tim_apb1_hz) != odoerr::hal::Status::kOk) {
     return 2;
   }
   // Read back: the registers hold what the drivers wrote.
-  const bool usart_ok = u1.brr == st::usart::brrFor(clk.pclk2_hz, 500000u) &&
-                        (u1.cr1 & (st::usart::kCr1Ue | st::usart::kCr1Re | st::usart::kCr1RxneIe)) ==
-                            (st::usart::kCr1Ue | st::usart::kCr1Re | st::usart::kCr1RxneIe);
-  const bool tim_ok = (t2.smcr & 7u) == 3u && (t5.smcr & 7u) == 3u && t2.ccmr1 == 0x3131u && t5.ccmr1 == 0x3131u &&
-                      t5.ccer == st::tim::kCcerCc1p && t2.arr == 0xFFFFFFFFu && t5.arr == 0xFFFFFFFFu;
+  const bool usart_ok = st::usartReadsBack(u1, clk.pclk2_hz, st::kLaserBaud);
+  const bool tim_ok = st::encodersReadBack(t2, t5);
   if (!usart_ok || !tim_ok) return 3;
   std::uint32_t count = 0;
   if (left.read(&count) != odoerr::hal::Status::kOk || right.read(&count) != odoerr::hal::Status::kOk) return 3;
 
   g_laser = &laser;
-  st::enableInterrupt(kUsart1Irq);
+  st::enableInterrupt(st::kUsart1Irq);
   // Ready: one byte out on USART1's transmit line, which the test's feeder waits for before
   // it sends the stream (what arrives before the receiver is on is lost, as on the chip).
   const std::uint8_t ready = 'R';
@@ -79,7 +64,7 @@ int main() {
   if (laser.write(&ready, 1, &sent) != odoerr::hal::Status::kOk) return 2;
 
   odoerr::drivers::Lms2xxConfig cfg;
-  cfg.baud = 500000;
+  cfg.baud = st::kLaserBaud;
   odoerr::drivers::Lms2xxParser parser(cfg);
   odoerr::board::probe::Tally tally;
   std::uint8_t chunk[64];
