@@ -144,6 +144,7 @@ int writeTape(const std::string& out, std::uint64_t seed, int steps, int record_
 struct HalTapeFaults {
   double corrupt = 0.0;   ///< probability that a laser byte has a bit flipped
   double drop = 0.0;      ///< probability that a laser byte is lost on the line
+  double drop_scans = 0.0;  ///< probability that a scan's telegram is not sent at all
   int encoder_faults = 0; ///< this many one-read glitches (+/-30,000 ticks) and as many lasting jumps (+5,000)
 };
 
@@ -157,6 +158,7 @@ int writeHalTape(const std::string& out, std::uint64_t seed, int steps, const Ha
   typename HalSimDrive<D>::Options opt;
   opt.faults.corrupt_probability = faults.corrupt;
   opt.faults.drop_probability = faults.drop;
+  opt.scan_dropout_probability = faults.drop_scans;
   HalSimDrive<D> world(cfg, seed, opt);
   fw::HalTapeHeader h;
   h.drive = PaperSim<D>::kSync ? 0 : 1;
@@ -217,6 +219,12 @@ int writeHalTape(const std::string& out, std::uint64_t seed, int steps, const Ha
   }
   std::fprintf(stderr, "odoerr hal-tape: wrote %u polls (%d cycles of travel) to %s\n", polls, steps,
                out.c_str());
+  std::fprintf(stderr,
+               "odoerr hal-tape: faults: %zu scans not sent, %llu laser bytes lost, %llu corrupted, %d encoder "
+               "glitches, %d encoder jumps\n",
+               world.steps().size() / std::size_t(opt.scan_every) - world.scanSteps().size(),
+               static_cast<unsigned long long>(world.laserPort().dropped()),
+               static_cast<unsigned long long>(world.laserPort().corrupted()), (enc_done + 1) / 2, enc_done / 2);
   return 0;
 }
 
@@ -431,6 +439,8 @@ void registerSimCommands(CLI::App& app, cli::Commands& cmds) {
   haltape->add_option("--corrupt", ho->faults.corrupt, "probability that a laser byte is corrupted")
       ->check(CLI::Range(0.0, 1.0));
   haltape->add_option("--drop", ho->faults.drop, "probability that a laser byte is lost on the line")
+      ->check(CLI::Range(0.0, 1.0));
+  haltape->add_option("--drop-scans", ho->faults.drop_scans, "probability that a scan's telegram is not sent")
       ->check(CLI::Range(0.0, 1.0));
   haltape->add_option("--encoder-faults", ho->faults.encoder_faults,
                       "N one-read glitches of +/-30000 ticks and N lasting jumps of +5000 ticks")
