@@ -4,6 +4,7 @@
 // test_feature_effects.cpp.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstdio>
 #include <random>
 #include <tuple>
@@ -259,6 +260,10 @@ TEST(Effects, MotionPhysicsFollowsTheContract) {
   reg.y_max = 10;
   EXPECT_EQ(reg.cell(4.2, 5.1), 4);
   EXPECT_EQ(reg.cell(-3, 11), 6);  // clamped
+  // far beyond int's range after scaling, or not a number: clamped, never converted as is
+  EXPECT_EQ(reg.cell(8.05e9, 5.1), 5);
+  EXPECT_EQ(reg.cell(-1e300, 1e300), 6);
+  EXPECT_EQ(reg.cell(std::nan(""), 5.1), 3);
   // odometers: a reversal resets s_rev; s_enc follows the encoders
   WheelMotionContext<D> m;
   m.advance(0.01, 0.011);

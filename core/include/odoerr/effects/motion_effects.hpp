@@ -305,11 +305,14 @@ struct RegionScale : NominalZero<RegionScale> {
                                                  0.02, 0.02, 0.02, 0.02};
   double x_min = 0, y_min = 0, x_max = 1, y_max = 1;  ///< the map's bounding box
 
-  /// Grid cell of a position (clamped into the grid).
+  /// Grid cell of a position (clamped into the grid; a coordinate that is not a number is
+  /// taken as the low edge). Clamped before the conversion to int, which is undefined for a
+  /// value beyond int's range (a pose far outside the map; found by fuzz_pipeline).
   int cell(double x, double y) const {
     auto idx = [](double v, double lo, double hi) {
-      int i = hi > lo ? static_cast<int>((v - lo) / (hi - lo) * kGrid) : 0;
-      return i < 0 ? 0 : (i >= kGrid ? kGrid - 1 : i);
+      const double f = hi > lo ? (v - lo) / (hi - lo) * kGrid : 0.0;
+      if (!(f >= 0.0)) return 0;
+      return f >= double(kGrid - 1) ? kGrid - 1 : static_cast<int>(f);
     };
     return kGrid * idx(y, y_min, y_max) + idx(x, x_min, x_max);
   }
