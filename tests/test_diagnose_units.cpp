@@ -1,9 +1,14 @@
 // diagnose's units that need no drive: the --with grammar, the feature terms' names,
-// tokens and words.
+// tokens and words; the detection power's sizes and sentence.
 #include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
 
 #include "diagnose/map_misfit.hpp"
 #include "diagnose/model_search.hpp"
+#include "diagnose/power.hpp"
+#include "odoerr/sim/stats.hpp"
 
 using namespace odoerr;
 using namespace odoerr::sim::diag;
@@ -165,4 +170,61 @@ TEST(DiagnoseMap, RegionHistoryKinds) {
   h = regionHistory({});
   EXPECT_EQ(h.scans, 0);
   EXPECT_EQ(h.kind, "");
+}
+
+TEST(DiagnosePower, SizesFromTheCandidatesSigmaAndReasonsWhereThereIsNone) {
+  // Five families: one excited parameter; one left at its prior; a measurement effect on a log
+  // without a laser; a noise effect; two parameters of which one is informed.
+  auto info = [](const char* name, EffectKind kind, int n) {
+    EffectInfo e;
+    e.name = name;
+    e.kind = kind;
+    e.n = n;
+    for (int i = 0; i < n; ++i) {
+      e.pnames.push_back("p" + std::to_string(i));
+      e.ref.push_back(0.04);
+      e.prior.push_back(0.1);
+    }
+    return e;
+  };
+  const std::vector<EffectInfo> fx = {info("turn_slip", EffectKind::kMotion, 1), info("backlash", EffectKind::kMotion, 1),
+                                      info("range_bias", EffectKind::kMeasurement, 1),
+                                      info("turn_noise", EffectKind::kNoise, 1),
+                                      info("wheel_eccentricity", EffectKind::kMotion, 2)};
+  std::vector<Candidate> cand(fx.size());
+  auto set = [&](int e, std::vector<double> sig, std::vector<bool> informed) {
+    cand[e].sig = Eigen::Map<Eigen::VectorXd>(sig.data(), static_cast<Eigen::Index>(sig.size()));
+    cand[e].informed = informed;
+  };
+  set(0, {0.001}, {true});
+  set(1, {0.09}, {false});
+  set(2, {0.0001}, {true});
+  set(3, {0.0002}, {true});
+  set(4, {0.002, 0.08}, {true, false});
+  const long n = 20000;
+  const auto j = detectionPower(fx, cand, n, /*has_laser=*/false);
+  ASSERT_EQ(j["families"].size(), 5u);
+  // k = 1: the largest of chi2_1(0.999), ln n and chi2_1(0.99) is ln 20000 = 9.90 < 10.83.
+  const double tau = std::max(sim::chiSquareQuantile(0.999, 1), std::log(double(n)));
+  const double lambda = sim::noncentralityForPower(1, tau, kDetectionPower);
+  const auto& ts = j["families"][0];
+  EXPECT_TRUE(ts["excited"].get<bool>());
+  EXPECT_NEAR(ts["threshold"].get<double>(), 10.8276, 1e-3);
+  EXPECT_NEAR(ts["parameters"][0]["min_detectable"].get<double>(), 0.001 * std::sqrt(lambda), 1e-12);
+  EXPECT_GT(ts["parameters"][0]["min_detectable"].get<double>(), 0.001 * std::sqrt(tau));  // 80 % needs more than the threshold
+  EXPECT_FALSE(j["families"][1]["excited"].get<bool>());
+  EXPECT_TRUE(j["families"][1]["parameters"][0]["min_detectable"].is_null());
+  EXPECT_NE(j["families"][1]["why"].get<std::string>().find("reverse the direction"), std::string::npos);
+  EXPECT_EQ(j["families"][2]["why"], "needs a laser; the log has none");
+  EXPECT_TRUE(j["families"][3]["parameters"][0]["min_detectable"].is_null());
+  EXPECT_TRUE(j["families"][4]["excited"].get<bool>());
+  EXPECT_EQ(j["families"][4]["informed_params"], 1);
+  EXPECT_TRUE(j["families"][4]["parameters"][1]["min_detectable"].is_null());
+  const std::string s = nothingLargerThan(j);
+  EXPECT_EQ(s.rfind("nothing larger than turn_slip.p0 ", 0), 0u) << s;
+  EXPECT_NE(s.find("wheel_eccentricity.p0 "), std::string::npos) << s;
+  EXPECT_NE(s.find("(p1 not excited)"), std::string::npos) << s;
+  EXPECT_NE(s.find("(80 % power); not excited by this drive: backlash, range_bias; no size stated for turn_noise"),
+            std::string::npos)
+      << s;
 }

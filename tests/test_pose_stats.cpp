@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <random>
 
 #include <Eigen/Dense>
@@ -75,6 +76,31 @@ TEST(DiagnoseStats, ChiSquareSurvivalAndBandMatchReferenceValues) {
   EXPECT_NEAR(b1[0], 0.0009820691171752555, 1e-12);
   EXPECT_NEAR(b1[1], 5.023886187314888, 1e-9);
   EXPECT_EQ(band(30), b30);  // the cached value is the value
+}
+
+TEST(DiagnoseStats, NoncentralityForPowerMatchesTheNormalFormAndAMonteCarlo) {
+  // k = 1: chi2_1(lambda) is (Z + sqrt(lambda))^2, so the power at threshold tau has a closed
+  // form in the normal distribution, independent of Boost's non-central chi-square.
+  for (const double tau : {10.83, 11.5, 20.0}) {
+    for (const double power : {0.5, 0.8, 0.95}) {
+      const double mu = std::sqrt(noncentralityForPower(1, tau, power)), r = std::sqrt(tau);
+      const double p = 0.5 * std::erfc((r - mu) / std::sqrt(2.0)) + 0.5 * std::erfc((r + mu) / std::sqrt(2.0));
+      EXPECT_NEAR(p, power, 1e-8) << "tau " << tau << " power " << power;
+    }
+  }
+  // k = 3 at the ranking's threshold: 200,000 draws of |N(mean, I)|^2 with |mean|^2 = lambda.
+  const double tau = chiSquareQuantile(1.0 - 1e-3, 3);
+  const double lambda = noncentralityForPower(3, tau, 0.8);
+  std::mt19937 rng(11);
+  odoerr::sim::NormalDist<double> g(0, 1);
+  int pass = 0;
+  const int n = 200000;
+  for (int i = 0; i < n; ++i) {
+    const double a = g(rng) + std::sqrt(lambda), b = g(rng), c = g(rng);
+    pass += a * a + b * b + c * c > tau ? 1 : 0;
+  }
+  EXPECT_NEAR(double(pass) / n, 0.8, 0.005);  // 3.5 standard errors of the fraction
+  EXPECT_GT(noncentralityForPower(3, tau, 0.9), lambda);  // more power needs a larger effect
 }
 
 TEST(DiagnosePoseFix, MeanNisBandCoversConsistentRunsAtItsLevel) {

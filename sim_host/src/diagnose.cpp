@@ -15,6 +15,7 @@
 #include "diagnose/map_misfit.hpp"
 #include "diagnose/model_search.hpp"
 #include "diagnose/physical.hpp"
+#include "diagnose/power.hpp"
 #include "diagnose/ranking.hpp"
 #include "odoerr/sim/odolog_json.hpp"
 
@@ -189,6 +190,7 @@ bool diagnoseDrive(const Odolog& log, const DiagnoseOptions& opt, json* out, std
     for (std::size_t i = 0; i < named0.size(); ++i)
       if (row["effect"] == fx[named0[i]].name) row["explains"] = explains[i];
   const json excitation = excitationReport(en, base_free, rank.candidates(), log.has_laser);
+  const json power = detectionPower(fx, rank.candidates(), n_innov, log.has_laser);
 
   // Statistics of the baseline (K held) and the verdict.
   const bool with_fixes = !log.poses.empty();
@@ -270,6 +272,8 @@ bool diagnoseDrive(const Odolog& log, const DiagnoseOptions& opt, json* out, std
   j["drive"] = log.drive;
   j["verdict"] = !st.has_data ? "insufficient data" : consistent ? "consistent" : "inconsistent";
   if (!st.has_data) j["verdict_missing"] = st.missing;
+  // "Consistent" says what the drive could not have missed (power.hpp).
+  if (st.has_data && consistent) j["verdict_detail"] = "consistent: " + nothingLargerThan(power);
   j["encoder_rejections"] = rejectionsJson(log);
   {
     // What the verdict rests on that the user must know: increments the reader rejected.
@@ -288,6 +292,7 @@ bool diagnoseDrive(const Odolog& log, const DiagnoseOptions& opt, json* out, std
   j["map_misfit"]["ranking_with_region_beams"] = ranking_other;
   if (with.automatic) j["auto"] = automatic;
   j["excitation"] = excitation;
+  j["detection_power"] = power;
   j["bins"] = st.bins;
   j["cusum"] = st.cusum;
   j["baseline"] = {{"innovations", n_innov},

@@ -9,6 +9,7 @@
 #include <fstream>
 
 #include <boost/math/distributions/chi_squared.hpp>
+#include <boost/math/distributions/non_central_chi_squared.hpp>
 
 namespace odoerr::sim {
 
@@ -87,6 +88,11 @@ double chiSquareSf(double x, double k) {
 double chiSquareQuantile(double p, double k) {
   const boost::math::chi_squared_distribution<double> d(k);
   return boost::math::quantile(d, p);
+}
+
+double noncentralityForPower(double k, double threshold, double power) {
+  // The CDF at the threshold is 1 - power.
+  return boost::math::non_central_chi_squared_distribution<double>::find_non_centrality(k, threshold, 1.0 - power);
 }
 
 std::array<double, 2> ChiSquareBand95::operator()(int dof) {

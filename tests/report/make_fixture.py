@@ -447,6 +447,23 @@ def main():
         add_tests_extras(tests, rng, 36)
         add_discovery(doc, a.outdir, rng, float(t[si][-1]), float(dist[si][-1]))
         add_map_misfit(doc, a.outdir, WALLS, b_hx, b_hy, norm_innov, b_scan, ex[si], ey[si], rng)
+        doc["detection_power"] = {
+            "power": 0.8, "rule": "the ranking's", "n_innovations": len(b_t),
+            "families": [
+                {"family": "turn_slip", "kind": "motion", "excited": True, "informed_params": 1, "threshold": 11.6,
+                 "noncentrality": 19.5, "parameters": [{"name": "k_s2_per_m", "reference_size": 0.04,
+                                                        "min_detectable": 0.00321, "sigma": 0.000727,
+                                                        "over_reference_size": 0.0803}]},
+                {"family": "backlash", "kind": "motion", "excited": False,
+                 "why": "not excited by this drive: reverse the direction of travel many times",
+                 "informed_params": 0, "threshold": None, "noncentrality": None,
+                 "parameters": [{"name": "b_m", "reference_size": 0.005, "min_detectable": None,
+                                 "why": "not excited by this drive: reverse the direction of travel many times"}]},
+                {"family": "turn_noise", "kind": "noise", "excited": False,
+                 "why": "a noise effect is tested on its likelihood profile, which gives no sigma to scale",
+                 "informed_params": 1, "threshold": None, "noncentrality": None,
+                 "parameters": [{"name": "q", "reference_size": 0.001, "min_detectable": None,
+                                 "why": "a noise effect is tested on its likelihood profile"}]}]}
     with open(os.path.join(a.outdir, "diagnose.json"), "w") as f:
         json.dump(doc, f, indent=1)
     print(f"make_fixture: {a.outdir}: {ns} scans, {len(b_t)} beams, drive {a.drive}, "

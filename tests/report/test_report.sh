@@ -19,6 +19,8 @@
 #  (h) where the map is wrong: the map with its regions renders, the region's table and the ranking
 #      line are there; no region, no map_grid.csv, an older diagnose.json: said in words; a bad
 #      region or map_grid.csv: a message naming the file.
+#  (i) detection power: its section (sizes, families not excited, noise families); an older
+#      diagnose.json says "not run"; a consistent verdict's headline says what it could not miss.
 #
 # Exit 0 all passed; 1 something failed; 77 Chromium is missing (the steps that need no browser
 # still ran and passed). Closes with the line "report: N passed, N failed".
@@ -217,7 +219,8 @@ fi
 "$PY" "$fixture" "$tmp/old" --beams 8000 --no-discovery --seed 4 2>/dev/null
 if out=$("$PY" "$report" "$tmp/old" 2>&1); then
   expect_in "an older diagnose.json (no discovery keys): sections say not run ($out)" "$tmp/old/report.html" \
-    'Discovery was not run' 'The change-point scan was not run' 'Not run: diagnose was run without'
+    'Discovery was not run' 'The change-point scan was not run' 'Not run: diagnose was run without' \
+    'No detection power in diagnose.json (an older odoerr): not run.'
 else bad "an older diagnose.json: $out"; fi
 mkdir -p "$tmp/nothing" && cp "$tmp/full/"{scans,beams,trajectory}.csv "$tmp/nothing/"
 for f in motion beam; do head -n 1 "$tmp/full/discovery_$f.csv" | cut -d, -f1-4 > "$tmp/nothing/discovery_$f.csv"
@@ -232,12 +235,20 @@ d["change_points"] = []
 d["auto"] = {"steps": [], "tried": [], "final_with": [], "rule": None}
 for r in d["ranking"]:
     r["explains"] = None
+    r["significant"] = False
+d["verdict"] = "consistent"
+d["verdict_detail"] = "consistent: nothing larger than turn_slip.k_s2_per_m 0.00321 (80 % power)"
+d["map_misfit"]["regions"] = []
 json.dump(d, open(sys.argv[2], "w"))
 EOF2
 if out=$("$PY" "$report" "$tmp/nothing" 2>&1); then
   expect_in "discovery found nothing: said in words ($out)" "$tmp/nothing/report.html" \
     'Nothing is left unexplained' 'No term of the feature library is left' 'No change point' \
     'No step was kept' 'the baseline (nothing added)'
+  h=$(headline "$tmp/nothing/report.html")
+  if [[ "$h" == "The model explains this log"*"Nothing larger than turn_slip.k_s2_per_m 0.00321 (80 % power)."* ]]; then
+    ok "a consistent verdict: the headline says what the drive could not have missed"
+  else bad "a consistent verdict: headline: $h"; fi
 else bad "discovery found nothing: $out"; fi
 mkdir -p "$tmp/badcp" && cp "$tmp/full/"*.csv "$tmp/badcp/"
 "$PY" -c 'import json,sys; d=json.load(open(sys.argv[1])); d["change_points"][0]["t"]="soon"; json.dump(d, open(sys.argv[2],"w"))' \
@@ -263,6 +274,12 @@ if [ -s "$page" ]; then
     "(9.65, 4.50) → (9.65, 5.50) m" "1.00 m long" "0.25 × 1.00 m" "−4.18" "over the $cells cells tested" \
     "The effect ranking above left out the 4,123 beams" "laser_mount_xy (p &lt; 0.0001)" \
     "without them it names wall_offset, turn_slip, range_bias."
+fi
+if [ -s "$page" ]; then
+  expect_in "detection power section in the full report" "$page" \
+    'Detection power: what this drive could not have missed' "href='#power'" 'smallest detectable (80 % power)' \
+    'turn_slip.k_s2_per_m' '0.00321' 'not excited by this drive: reverse the direction of travel many times' \
+    'a noise effect is tested on its likelihood profile'
 fi
 if [ -s "$tmp/old/report.html" ]; then
   expect_in "an older diagnose.json: the map section says not run" "$tmp/old/report.html" \

@@ -120,6 +120,8 @@ int runDiagnose(const std::string& log_path, const std::string& json_path, Diagn
     if (r["significant"].get<bool>()) named += (named.empty() ? "" : ", ") + r["effect"].get<std::string>();
   std::fprintf(stderr, "%s: %s; verdict %s; effects named: %s (%.1f s)\n", who, log_path.c_str(),
                result["verdict"].get<std::string>().c_str(), named.empty() ? "none" : named.c_str(), secs);
+  if (result.contains("verdict_detail"))
+    std::fprintf(stderr, "%s: %s\n", who, result["verdict_detail"].get<std::string>().c_str());
   for (const auto& c : result["verdict_caveats"]) std::fprintf(stderr, "%s: but: %s\n", who, c.get<std::string>().c_str());
   if (result.contains("verdict_missing")) {
     for (const auto& m : result["verdict_missing"]) std::fprintf(stderr, "%s: missing: %s\n", who, m.get<std::string>().c_str());

@@ -85,4 +85,8 @@ def headline_html(d):
     elif missing:
         lead = "The model explains this log" if d.get("verdict") == "consistent" else "<b>Nothing specific found</b>"
         s.append(f"{lead}: {E(_join([t for _, t in missing]))}.")
+    detail = d.get("verdict_detail")
+    if d.get("verdict") == "consistent" and isinstance(detail, str) and detail.startswith("consistent: "):
+        rest = detail[len("consistent: "):]
+        s.append(f"<a href='#power'>{E(rest[0].upper() + rest[1:])}</a>.")
     return f"<p class='headline' id='headline'>{' '.join(s)}{but}</p>" if s or but else ""

@@ -33,7 +33,7 @@ from map_misfit import map_misfit_section  # noqa: E402
 from alarms import cluster_alarms, plural as alarm_plural, summary as alarm_summary  # noqa: E402
 from headline import headline_html  # noqa: E402
 from discovery import discovery_sections  # noqa: E402
-from sections import (tests_section, ranking_section, heldout_table, excitation_section,  # noqa: E402
+from sections import (tests_section, ranking_section, heldout_table, excitation_section, power_section,  # noqa: E402
                       bins_table)
 
 PROG = "make_report"
@@ -83,7 +83,7 @@ def build(args):
     s.append("<nav><a href='#tests'>Tests</a><a href='#trajectory'>Trajectory</a><a href='#nis'>NIS</a>"
              "<a href='#residuals'>Residual map</a><a href='#map-misfit'>Map errors</a><a href='#beams'>Per beam</a><a href='#bins'>Bins</a>"
              "<a href='#ranking'>Effects</a><a href='#unexplained'>Unexplained</a><a href='#changes'>Change points</a>"
-             "<a href='#auto'>Auto</a><a href='#heldout'>Held-out</a><a href='#excitation'>Excitation</a></nav>")
+             "<a href='#auto'>Auto</a><a href='#heldout'>Held-out</a><a href='#excitation'>Excitation</a><a href='#power'>Power</a></nav>")
 
     s.append("<h2 id='tests'>Consistency tests</h2>")
     s.append("<p class='cap'>Each test asks whether the filter's innovations (measured minus predicted "
@@ -243,6 +243,13 @@ def build(args):
              "below its prior; undetermined ones are highlighted, and the warnings say what driving would fix "
              "that.</p>")
     s.append(excitation_section(d.get("excitation")))
+
+    s.append("<h2 id='power'>Detection power: what this drive could not have missed</h2>")
+    s.append("<p class='cap'>For each effect the ranking tests, the smallest size this drive would have revealed "
+             "at the ranking's own threshold, with the power stated (from the sigma the effect's run achieved; "
+             "conservative where parameters are correlated). A consistent verdict means nothing larger than these; "
+             "a family the drive does not excite is said so.</p>")
+    s.append(power_section(d.get("detection_power")))
 
     elapsed = time.monotonic() - t_start
     s.append(f"<p class='small' style='margin-top:40px'>Made by tools/report/make_report.py from "

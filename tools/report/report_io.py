@@ -203,6 +203,19 @@ def check_diagnose(d, path):
                 num(p, k, f"excitation.parameters[{i}]", path)
         w = e.get("warnings") or []
         expect(isinstance(w, list), path, "'excitation.warnings' should be a list of sentences")
+    dp = d.get("detection_power")
+    if dp is not None:
+        expect(isinstance(dp, dict), path, "'detection_power' should be an object")
+        num(dp, "power", "detection_power", path)
+        fams = dp.get("families") or []
+        expect(isinstance(fams, list), path, "'detection_power.families' should be a list")
+        for i, f in enumerate(fams):
+            expect(isinstance(f, dict) and isinstance(f.get("parameters") or [], list), path,
+                   f"'detection_power.families[{i}]' should be an object with a list of parameters")
+            for j, p in enumerate(f.get("parameters") or []):
+                expect(isinstance(p, dict), path, f"'detection_power.families[{i}].parameters[{j}]' should be an object")
+                for k in ("min_detectable", "reference_size"):
+                    num(p, k, f"detection_power.families[{i}].parameters[{j}]", path)
     b = d.get("bins")
     if b is not None:
         expect(isinstance(b, dict), path, "'bins' should be an object")

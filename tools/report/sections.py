@@ -1,4 +1,4 @@
-"""HTML of the report's tables: tests, ranking, held-out, excitation, bins."""
+"""HTML of the report's tables: tests, ranking, held-out, excitation, detection power, bins."""
 import math
 
 import numpy as np
@@ -301,6 +301,29 @@ def excitation_section(ex):
     else:
         out.append("<p class='note'>None: the drive excites every parameter enough.</p>")
     return "".join(out)
+
+
+def power_section(dp):
+    """The detection power: per family and parameter, the smallest size this drive would have
+    revealed at the ranking's threshold, or why it could not."""
+    if not dp:
+        return "<p class='note'>No detection power in diagnose.json (an older odoerr): not run.</p>"
+    rows, cls = [], []
+    for f in dp.get("families") or []:
+        for p in f.get("parameters") or []:
+            mde, ref = p.get("min_detectable"), p.get("reference_size")
+            excited = is_num(mde)
+            cls.append("" if excited else "undet")
+            rows.append([E(f"{f.get('family', '?')}.{p.get('name', '?')}"), E(str(f.get("kind", ""))),
+                         fnum(mde, 3) if excited else "—", fnum(ref, 3),
+                         f"{mde / ref:.2g}" if excited and is_num(ref) and ref > 0 else "—",
+                         "" if excited else E(str(p.get("why", "not excited")))])
+    if not rows:
+        return "<p class='note'>No effect family listed.</p>"
+    pw = dp.get("power")
+    head = f"smallest detectable ({100 * pw:.0f} % power)" if is_num(pw) else "smallest detectable"
+    return table(["family.parameter", "kind", head, "reference size", "detectable / reference", "why not"],
+                 rows, cls, num_cols=(2, 3, 4))
 
 
 def bins_table(bins, names):

@@ -8,8 +8,6 @@ namespace odoerr::sim::diag {
 
 namespace {
 using json = nlohmann::ordered_json;
-constexpr double kAlpha = 1e-3;      // test level of one candidate's likelihood ratio (before the BIC condition)
-constexpr double kAlphaWald = 1e-2;  // test level of its Wald statistic (the estimate against its own sigma)
 constexpr double kInformed = 0.7;    // a parameter is informed when the drive shrinks its prior sigma below this
 }  // namespace
 
@@ -191,7 +189,7 @@ bool Ranking<DriveT>::test(const Candidate& c, RankRow* r) const {
   // runs, by tens of log-likelihood units), so the ratio alone took such jumps for
   // evidence on clean drives; the Wald test asks whether the estimate itself stands
   // clear of zero against its own sigma.
-  return r->k > 0 && r->p < kAlpha && r->bic > 0 && r->wald_p < kAlphaWald;
+  return r->k > 0 && r->p < kRankAlphaLr && r->bic > 0 && r->wald_p < kRankAlphaWald;
 }
 
 // Conditional tests: each of `others` scored against a reference that has `given` in the

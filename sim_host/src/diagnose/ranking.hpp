@@ -16,6 +16,11 @@
 
 namespace odoerr::sim::diag {
 
+/// The test levels that name a candidate (Ranking::test): its likelihood ratio's (before the
+/// BIC condition) and its Wald statistic's (the estimate against its own sigma).
+inline constexpr double kRankAlphaLr = 1e-3;
+inline constexpr double kRankAlphaWald = 1e-2;
+
 /// One candidate effect scored against a reference.
 struct Candidate {
   Eigen::VectorXd est, sig;

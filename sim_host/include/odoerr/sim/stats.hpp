@@ -24,6 +24,10 @@ const char* statusName(Status s);
 double chiSquareSf(double x, double k);
 /// Chi-square quantile for k degrees of freedom, p in (0, 1) (Boost.Math, exact).
 double chiSquareQuantile(double p, double k);
+/// The non-centrality lambda at which a chi-square statistic of k degrees of freedom
+/// exceeds `threshold` with probability `power`: P(chi2_k(lambda) > threshold) = power
+/// (Boost.Math's non-central chi-square). k >= 1, threshold > 0, power in (0, 1).
+double noncentralityForPower(double k, double threshold, double power);
 /// The central 95 % band [q(0.025), q(0.975)] of a chi-square with dof degrees of freedom
 /// (dof >= 1), computed once per dof a series asks for.
 class ChiSquareBand95 {
