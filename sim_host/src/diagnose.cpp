@@ -190,7 +190,8 @@ bool diagnoseDrive(const Odolog& log, const DiagnoseOptions& opt, json* out, std
     for (std::size_t i = 0; i < named0.size(); ++i)
       if (row["effect"] == fx[named0[i]].name) row["explains"] = explains[i];
   const json excitation = excitationReport(en, base_free, rank.candidates(), log.has_laser);
-  const json power = detectionPower(fx, rank.candidates(), n_innov, log.has_laser);
+  json power = detectionPower(fx, rank.candidates(), n_innov, log.has_laser);
+  power["features"] = featurePower(res_base);
 
   // Statistics of the baseline (K held) and the verdict.
   const bool with_fixes = !log.poses.empty();

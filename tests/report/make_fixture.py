@@ -463,7 +463,17 @@ def main():
                  "why": "a noise effect is tested on its likelihood profile, which gives no sigma to scale",
                  "informed_params": 1, "threshold": None, "noncentrality": None,
                  "parameters": [{"name": "q", "reference_size": 0.001, "min_detectable": None,
-                                 "why": "a noise effect is tested on its likelihood profile"}]}]}
+                                 "why": "a noise effect is tested on its likelihood profile"}]}],
+            "features": {
+                "power": 0.8, "rule": "discovery's: a term's cluster-robust z beyond 4.5 and a 1 % fall",
+                "motion": {"rows": 412, "terms": [
+                    {"term": "abs_ds@world_x", "frame": "world", "unit": "m/m", "min_detectable": 0.00184,
+                     "sigma": 0.000345},
+                    {"term": "dt@along", "frame": "robot", "unit": "m/s", "min_detectable": None,
+                     "why": "not excited by this drive (the term's column is zero or follows the drive parameters')"}]},
+                "beam": {"rows": 12000, "terms": [
+                    {"term": "inv_cos_inc@range", "frame": "beam", "unit": "m", "min_detectable": 0.00071,
+                     "sigma": 0.00013}]}}}
     with open(os.path.join(a.outdir, "diagnose.json"), "w") as f:
         json.dump(doc, f, indent=1)
     print(f"make_fixture: {a.outdir}: {ns} scans, {len(b_t)} beams, drive {a.drive}, "

@@ -279,7 +279,8 @@ if [ -s "$page" ]; then
   expect_in "detection power section in the full report" "$page" \
     'Detection power: what this drive could not have missed' "href='#power'" 'smallest detectable (80 % power)' \
     'turn_slip.k_s2_per_m' '0.00321' 'not excited by this drive: reverse the direction of travel many times' \
-    'a noise effect is tested on its likelihood profile'
+    'a noise effect is tested on its likelihood profile' "The feature library's terms" 'abs_ds@world_x' \
+    '0.00184' 'column is zero or follows the drive parameters'
 fi
 if [ -s "$tmp/old/report.html" ]; then
   expect_in "an older diagnose.json: the map section says not run" "$tmp/old/report.html" \

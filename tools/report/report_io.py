@@ -216,6 +216,15 @@ def check_diagnose(d, path):
                 expect(isinstance(p, dict), path, f"'detection_power.families[{i}].parameters[{j}]' should be an object")
                 for k in ("min_detectable", "reference_size"):
                     num(p, k, f"detection_power.families[{i}].parameters[{j}]", path)
+        feats = dp.get("features")
+        if feats is not None:
+            expect(isinstance(feats, dict), path, "'detection_power.features' should be an object")
+            for design in ("motion", "beam"):
+                terms = (feats.get(design) or {}).get("terms") or []
+                expect(isinstance(terms, list), path, f"'detection_power.features.{design}.terms' should be a list")
+                for i, t in enumerate(terms):
+                    expect(isinstance(t, dict), path, f"'detection_power.features.{design}.terms[{i}]' should be an object")
+                    num(t, "min_detectable", f"detection_power.features.{design}.terms[{i}]", path)
     b = d.get("bins")
     if b is not None:
         expect(isinstance(b, dict), path, "'bins' should be an object")

@@ -322,8 +322,22 @@ def power_section(dp):
         return "<p class='note'>No effect family listed.</p>"
     pw = dp.get("power")
     head = f"smallest detectable ({100 * pw:.0f} % power)" if is_num(pw) else "smallest detectable"
-    return table(["family.parameter", "kind", head, "reference size", "detectable / reference", "why not"],
-                 rows, cls, num_cols=(2, 3, 4))
+    out = table(["family.parameter", "kind", head, "reference size", "detectable / reference", "why not"],
+                rows, cls, num_cols=(2, 3, 4))
+    feats = dp.get("features")
+    if not isinstance(feats, dict):
+        return out + "<p class='note'>No feature terms in detection_power (an older odoerr).</p>"
+    rows, cls = [], []
+    for design in ("motion", "beam"):
+        for t in (feats.get(design) or {}).get("terms") or []:
+            mde = t.get("min_detectable")
+            cls.append("" if is_num(mde) else "undet")
+            rows.append([E(str(t.get("term", "?"))), E(design), fnum(mde, 3) if is_num(mde) else "—",
+                         E(str(t.get("unit", ""))), "" if is_num(mde) else E(str(t.get("why", "not excited")))])
+    out += ("<h3>The feature library's terms</h3><p class='cap'>" + E(str(feats.get("rule", ""))) +
+            ": the smallest coefficient each term would have shown.</p>")
+    return out + (table(["term", "residual", head, "unit", "why not"], rows, cls, num_cols=(2,)) if rows
+                  else "<p class='note'>No feature terms (no rows to regress).</p>")
 
 
 def bins_table(bins, names):

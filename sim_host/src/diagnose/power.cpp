@@ -76,6 +76,54 @@ json detectionPower(const std::vector<EffectInfo>& fx, const std::vector<Candida
           {"families", families}};
 }
 
+namespace {
+/// The unit of a term's coefficient: its target's unit over its feature's.
+std::string coefUnit(const Term& t) {
+  auto over = [](const std::string& num, const std::string& den) {
+    if (den == "1") return num;
+    return den.find_first_of("/*") == std::string::npos ? num + "/" + den : num + "/(" + den + ")";
+  };
+  switch (t.kind) {
+    case Term::Kind::kBeam: return over("m", effects::beamFeatureUnit(t.bf));
+    case Term::Kind::kTime: return "m/s";
+    case Term::Kind::kReversal: return std::string(effects::motionTargetUnit(t.mt)) + " per reversal";
+    case Term::Kind::kMotion: break;
+  }
+  return over(effects::motionTargetUnit(t.mt), effects::motionFeatureUnit(t.mf));
+}
+
+json termsPower(const Design& d, const std::vector<Term>& terms) {
+  std::vector<double> sig;
+  const std::vector<double> mde = minDetectableCoefs(d, SelectOptions{}, kDetectionPower, &sig);
+  json out = json::array();
+  for (std::size_t k = 0; k < mde.size() && k < terms.size(); ++k) {
+    const Term& t = terms[k];
+    json row = {{"term", t.name() + "@" + t.target()}, {"frame", t.frame()}, {"unit", coefUnit(t)}};
+    if (std::isfinite(mde[k])) {
+      row["min_detectable"] = mde[k];
+      row["sigma"] = sig[k];
+    } else {
+      row["min_detectable"] = nullptr;
+      row["why"] = "not excited by this drive (the term's column is zero or follows the drive parameters')";
+    }
+    out.push_back(row);
+  }
+  return out;
+}
+}  // namespace
+
+json featurePower(const Residuals& base) {
+  const SelectOptions so;
+  char rule[160];
+  std::snprintf(rule, sizeof rule,
+                "discovery's: a term's cluster-robust z beyond %.1f and a %.0f %% fall of the cross-validated misfit",
+                so.z_min, 100 * so.min_gain);
+  return {{"power", kDetectionPower},
+          {"rule", rule},
+          {"motion", {{"rows", base.motion.x.rows()}, {"terms", termsPower(base.motion, base.motion_terms)}}},
+          {"beam", {{"rows", base.beam.x.rows()}, {"terms", termsPower(base.beam, base.beam_terms)}}}};
+}
+
 std::string nothingLargerThan(const json& power) {
   // Per family, the largest of its parameters' sizes: no parameter larger than that.
   std::string sizes, not_excited, noise;
@@ -116,6 +164,13 @@ std::string nothingLargerThan(const json& power) {
                                 : "nothing larger than " + sizes + " (" +
                                       sig3(100 * power["power"].get<double>()) + " % power)";
   if (!not_excited.empty()) s += "; not excited by this drive: " + not_excited;
+  if (power.contains("features")) {
+    int bounded = 0, idle = 0;
+    for (const char* design : {"motion", "beam"})
+      for (const json& t : power["features"][design]["terms"]) (t["min_detectable"].is_null() ? idle : bounded) += 1;
+    s += "; feature terms: " + std::to_string(bounded) + " bounded (detection_power.features)";
+    if (idle > 0) s += ", " + std::to_string(idle) + " not excited";
+  }
   if (!noise.empty()) s += "; no size stated for " + noise + " (tested on its likelihood profile)";
   return s;
 }

@@ -10,6 +10,10 @@
 // sigma_i sqrt(lambda_P), lambda_P the non-centrality at which the statistic passes the
 // larger threshold with probability P. sigma_i is the marginal sigma (the others free), so
 // the size is conservative: a correlated parameter can only make the true power higher.
+//
+// The feature library's terms (discovery): a term is kept when its cluster-robust z passes
+// 4.5 and it lowers the cross-validated misfit by 1 %; its smallest detectable coefficient is
+// the larger of sigma_j (4.5 + z_P) and the coefficient whose fall of the misfit is 1 %.
 #pragma once
 
 #include <string>
@@ -17,6 +21,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "discovery.hpp"
 #include "ranking.hpp"
 #include "run_types.hpp"
 
@@ -30,6 +35,12 @@ inline constexpr double kDetectionPower = 0.8;
 /// the reason). n_innov: the innovations of the reference run (the BIC's n).
 nlohmann::ordered_json detectionPower(const std::vector<EffectInfo>& fx, const std::vector<Candidate>& cand,
                                       long n_innov, bool has_laser);
+
+/// The same for the feature library's terms (discovery's candidates; regression.hpp,
+/// minDetectableCoefs): {"rule", "motion": {"rows", "terms": [...]}, "beam": {...}}, each
+/// term's smallest detectable coefficient in its unit, or null when the drive does not
+/// determine it. From the residuals of the model as it was (`base`).
+nlohmann::ordered_json featurePower(const Residuals& base);
 
 /// The verdict's sentence for a consistent drive: "nothing larger than NAME.P X, ... (80 %
 /// power); not excited by this drive: ...", from detectionPower's JSON.

@@ -5,6 +5,8 @@
 #include <numeric>
 #include <random>
 
+#include <boost/math/distributions/normal.hpp>
+
 namespace odoerr::sim::diag {
 
 namespace {
@@ -168,6 +170,35 @@ Selection forwardSelect(const Design& d, const SelectOptions& opt) {
   }
   fillFit(d, f, &s);
   return s;
+}
+
+std::vector<double> minDetectableCoefs(const Design& d, const SelectOptions& opt, double power,
+                                       std::vector<double>* sigma) {
+  const int p = static_cast<int>(d.x.cols());
+  const int n_cand = std::max(0, p - d.n_nuisance);
+  std::vector<double> out(static_cast<std::size_t>(n_cand), std::numeric_limits<double>::quiet_NaN());
+  if (sigma != nullptr) sigma->assign(out.size(), std::numeric_limits<double>::quiet_NaN());
+  if (d.x.rows() == 0 || n_cand == 0) return out;
+  const Folds f = gramsOf(d);
+  const double sse0 = cvSse(f, columnsOf(d, {}));
+  // The normal quantile of `power`: |Z + mu| > z_min with probability `power` for mu about
+  // z_min + z_power (the far tail is negligible at z_min = 4.5).
+  const double z_power = boost::math::quantile(boost::math::normal_distribution<double>(), power);
+  for (int j = d.n_nuisance; j < p; ++j) {
+    const std::vector<int> c = columnsOf(d, {j});
+    Eigen::VectorXd beta, sig;
+    if (!robustFit(d, f, c, &beta, &sig)) continue;
+    const double s = sig[sig.size() - 1];
+    // |x_j|^2 beyond the nuisance columns: 1 / (G^-1)_jj.
+    const Eigen::MatrixXd g = subM(f.all.g, c);
+    const double gjj = g.ldlt().solve(Eigen::VectorXd::Unit(g.rows(), g.rows() - 1))[g.rows() - 1];
+    if (!(s > 0) || !(gjj > 0) || !std::isfinite(s) || !std::isfinite(gjj)) continue;
+    const double by_z = s * (opt.z_min + z_power);
+    const double by_gain = std::isfinite(sse0) ? std::sqrt(opt.min_gain * sse0 * gjj) : 0.0;
+    out[static_cast<std::size_t>(j - d.n_nuisance)] = std::max(by_z, by_gain);
+    if (sigma != nullptr) (*sigma)[static_cast<std::size_t>(j - d.n_nuisance)] = s;
+  }
+  return out;
 }
 
 Selection fitTerms(const Design& d, const std::vector<int>& terms) {

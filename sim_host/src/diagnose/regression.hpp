@@ -54,6 +54,16 @@ Selection fitTerms(const Design& d, const std::vector<int>& terms);
 /// Cross-validated SSE of the model with the nuisance columns and `terms`.
 double crossValidatedSse(const Design& d, const std::vector<int>& terms);
 
+/// The smallest coefficient of each candidate column (index j - n_nuisance) that
+/// forwardSelect would keep as a first term with probability about `power`: its robust z
+/// must pass opt.z_min, so the coefficient must reach sigma_j (z_min + z_power), and its fall
+/// of the cross-validated SSE opt.min_gain of the nuisance-only SSE, beta^2 |x_j|^2 with x_j
+/// the column beyond the nuisance columns. sigma_j: the cluster-robust sigma of the column
+/// fitted alone beside the nuisance columns. NaN for a column the rows do not determine (zero
+/// or dependent on the nuisance columns). sigma (may be null) receives the sigma_j.
+std::vector<double> minDetectableCoefs(const Design& d, const SelectOptions& opt, double power,
+                                       std::vector<double>* sigma);
+
 /// The level of the change-point test.
 constexpr double kChangeAlpha = 0.002;
 
