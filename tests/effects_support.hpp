@@ -18,8 +18,13 @@ namespace odoerr::effects_test {
 using namespace effects;
 using D = double;
 
-inline WheelMotionContext<D> testContext() {
-  WheelMotionContext<D> ctx;
+inline HistoryMotionContext<D> testContext() {
+  HistoryMotionContext<D> ctx;
+  ctx.v_prev = 0.5;  // the previous cycle (the feature effects' history features)
+  ctx.w_prev = 0.3;
+  ctx.a_prev = 2.0;
+  ctx.t = 12.5;
+  ctx.cycles = 3;
   ctx.dt = 0.02;
   ctx.s_abs = 37.0;
   ctx.s_signed = 12.0;
@@ -36,9 +41,9 @@ inline WheelMotionContext<D> testContext() {
   return ctx;
 }
 
-template <typename E>
+template <typename E, typename Ctx = HistoryMotionContext<D>>
 void checkMotionJacobians(const E& eff, const std::vector<D>& p0, const Increment<D>& in = {0.012, 0.004, 0.0003},
-                          const WheelMotionContext<D>& ctx = testContext()) {
+                          const Ctx& ctx = testContext()) {
   Eigen::Matrix<D, 3, 3> d_in;
   Eigen::Matrix<D, 3, E::kParams> d_p;
   (void)eff.apply(in, p0.data(), ctx, d_in, d_p);

@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <random>
 #include <tuple>
+#include <type_traits>
 
 #include "effects_support.hpp"
 #include "odoerr/akf.hpp"
@@ -42,6 +43,10 @@ TEST(FeatureEffects, MotionJacobiansMatchFiniteDifferences) {
       featureMotion({{FM::kV2, MT::kAlong}, {FM::kSDs, MT::kCross}, {FM::kDth, MT::kWorldX}, {FM::kDsL, MT::kWorldY}}),
       featureMotion({{FM::kDs, MT::kWheelR}, {FM::kSinHeadingDs, MT::kWheelL}, {FM::kYDs, MT::kAlong}, {FM::kDt, MT::kCross}}),
       featureMotion({{FM::kDsR, MT::kHeading}, {FM::kDsRSpeed, MT::kWorldX}, {FM::kDsLSpeed, MT::kCross}, {FM::kVW, MT::kWheelL}}),
+      // the history features
+      featureMotion({{FM::kAccDs, MT::kAlong}, {FM::kAccPosDs, MT::kWheelR}, {FM::kAccNegDs, MT::kCross}, {FM::kJerkDs, MT::kHeading}}),
+      featureMotion({{FM::kAccRDs, MT::kWheelR}, {FM::kAccLDs, MT::kWheelL}, {FM::kDwDs, MT::kHeading}, {FM::kRevNearDs, MT::kAlong}}),
+      featureMotion({{FM::kTDs, MT::kWorldX}, {FM::kAccDs, MT::kWheelL}, {FM::kDwDs, MT::kAlong}, {FM::kJerkDs, MT::kCross}}),
   };
   for (const MF& e : configs) {
     for (const Increment<D>& in : {Increment<D>{0.012, 0.004, 0.0003}, Increment<D>{-0.012, 0.03, 0.0003},
@@ -52,7 +57,7 @@ TEST(FeatureEffects, MotionJacobiansMatchFiniteDifferences) {
 }
 
 TEST(FeatureEffects, MotionFollowsTheLibraryAndAnEmptySlotDoesNothing) {
-  const MotionContext<D> ctx = testContext();  // dt 0.02, heading 0.7
+  const HistoryMotionContext<D> ctx = testContext();  // dt 0.02, heading 0.7
   const Increment<D> in{0.012, 0.02, 0.0003};
   Eigen::Matrix<D, 3, 3> di;
   Eigen::Matrix<D, 3, 4> dp;
@@ -82,6 +87,51 @@ TEST(FeatureEffects, MotionFollowsTheLibraryAndAnEmptySlotDoesNothing) {
   EXPECT_FALSE(g.configure(0, FM::kDs, MT::kAlong, -0.1, 0.01));
   EXPECT_FALSE(g.configure(0, FM::kDs, MT::kAlong, std::nan(""), 0.01));
   EXPECT_EQ(g.slots[0].feature, FM::kNone);
+}
+
+TEST(FeatureEffects, HistoryFeaturesFromThePreviousCycles) {
+  // A history by hand: cycles of 20 ms at 0.5 then 0.6 m/s, turning at 0.3 then 0.5 rad/s.
+  HistoryMotionContext<D> h;
+  h.dt = 0.02;
+  h.advanceHistory(0.010, 0.006, 0.02);  // v 0.5, w 0.3: no acceleration yet (one cycle)
+  EXPECT_EQ(h.cycles, 1);
+  EXPECT_DOUBLE_EQ(h.a_prev, 0.0);
+  EXPECT_NEAR(h.v_prev, 0.5, 1e-15);
+  const D rho = 0.012, th = 0.010, d = 0.5;  // this cycle: v 0.6, w 0.5
+  const D a = (0.6 - 0.5) / 0.02, alpha = (0.5 - 0.3) / 0.02;
+  auto f = [&](FM m) { return motionFeature(m, rho, th, h, d, 0.0, 0.0).f; };
+  EXPECT_NEAR(f(FM::kAccDs), a * rho, 1e-12);
+  EXPECT_NEAR(f(FM::kAccPosDs), a * rho, 1e-12);
+  EXPECT_EQ(f(FM::kAccNegDs), 0.0);
+  EXPECT_NEAR(f(FM::kAccRDs), (a + alpha * d / 2) * (rho + th * d / 2), 1e-12);
+  EXPECT_NEAR(f(FM::kAccLDs), (a - alpha * d / 2) * (rho - th * d / 2), 1e-12);
+  EXPECT_NEAR(f(FM::kDwDs), alpha * rho, 1e-12);
+  EXPECT_EQ(f(FM::kJerkDs), 0.0);  // needs two earlier cycles
+  EXPECT_NEAR(f(FM::kTDs), 0.02 * rho, 1e-15);
+  EXPECT_EQ(f(FM::kRevNearDs), 0.0);  // no reversal yet: s_rev is infinite
+  h.advanceHistory(rho, th, 0.02);
+  EXPECT_NEAR(h.a_prev, a, 1e-9);
+  EXPECT_NEAR(motionFeature(FM::kJerkDs, 0.012, 0.0, h, d, 0.0, 0.0).f, (0.0 - a) / 0.02 * 0.012, 1e-9);
+  // braking: only acc_neg_ds
+  EXPECT_LT(motionFeature(FM::kAccNegDs, 0.008, 0.0, h, d, 0.0, 0.0).f, 0.0);
+  EXPECT_EQ(motionFeature(FM::kAccPosDs, 0.008, 0.0, h, d, 0.0, 0.0).f, 0.0);
+  // an unknown duration restarts the history; a context without history gives 0
+  h.advanceHistory(0.01, 0.0, 0.0);
+  EXPECT_EQ(motionFeature(FM::kAccDs, 0.012, 0.0, h, d, 0.0, 0.0).f, 0.0);
+  const MotionContext<D> plain = h;
+  EXPECT_EQ(motionFeature(FM::kAccDs, rho, th, plain, d, 0.0, 0.0).f, 0.0);
+  // the model with a feature effect keeps the history and advances it
+  using M = Model<DiffDrive<D>, MF>;
+  static_assert(std::is_same_v<M::Context, HistoryMotionContext<D>>, "FeatureMotion reads the history");
+  static_assert(std::is_same_v<Model<DiffDrive<D>>::Context, MotionContext<D>>, "the plain model does not");
+  M m;
+  M::Context c;
+  c.dt = 0.02;
+  Increment<D> di{0.01, 0.006, 0};
+  m.advanceContext(c, di, 0.01);
+  m.advanceContext(c, Increment<D>{0.012, 0.01, 0}, 0.012);
+  EXPECT_NEAR(c.a_prev, a, 1e-9);
+  EXPECT_NEAR(c.t, 0.04, 1e-15);
 }
 
 TEST(FeatureEffects, PriorsComeFromTheConfiguration) {
@@ -163,24 +213,26 @@ Est featureEstimator(const SquareRoom<Est>& room, const E& eff) {
   return est;
 }
 
-TEST(FeatureEffects, WheelSpeedErrorIsEstimatedFromADriveOfVaryingSpeed) {
-  // truth: wheel_R travel += 0.03 x ds_R_speed, applied with the same feature code
+/// A drive of varying speed in the room whose truth has `c_true` x feature f on target t,
+/// applied with the same feature code; the estimator with that one slot free estimates c.
+/// Returns the estimate and its sigma, and checks that the pose follows the truth.
+std::pair<D, D> recoverMotionFeature(FM f, MT t, D c_true, D prior_sigma) {
   using M = Model<DiffDrive<D>, MF>;
   using Est = Estimator<M>;
   constexpr int kC = M::offsetOf<MF>();
   SquareRoom<Est> room;
-  ASSERT_TRUE(room.ok);
+  EXPECT_TRUE(room.ok);
   const auto& [map, laser, drive] = std::tie(room.map, room.laser, room.drive);
   MF eff;
   eff.wheelbase = drive.wheelbase;
   eff.xc = 5;
   eff.yc = 5;
-  ASSERT_TRUE(eff.configure(0, FM::kDsRSpeed, MT::kWheelR, 0.1, 0.01));
+  EXPECT_TRUE(eff.configure(0, f, t, prior_sigma, std::abs(c_true)));
   Est est = featureEstimator(room, eff);  // slots 1..3: prior 0, held at 0
 
-  const D c_true[4] = {0.03, 0, 0, 0};
+  const D c[4] = {c_true, 0, 0, 0};
   Pose<D> truth{kPose0[0], kPose0[1], kPose0[2]};
-  MotionContext<D> ctx;
+  HistoryMotionContext<D> ctx;
   ctx.dt = FeatureDrive::kDt;
   std::mt19937 rng(3);
   odoerr::sim::NormalDist<D> noise(0, 0.03);
@@ -194,23 +246,37 @@ TEST(FeatureEffects, WheelSpeedErrorIsEstimatedFromADriveOfVaryingSpeed) {
     const Increment<D> inc0 = drive.increment(u, DiffDrive<D>::nominal(), DiffDrive<D>::NoiseVec::Zero());
     Eigen::Matrix3d di;
     Eigen::Matrix<D, 3, 4> dp;
-    truth = applyIncrement(truth, eff.apply(inc0, c_true, ctx, di, dp));
+    truth = applyIncrement(truth, eff.apply(inc0, c, ctx, di, dp));
     ctx.advance(inc0.rho, DiffDrive<D>::encoderTravel(u));
+    ctx.advanceHistory(inc0.rho, inc0.theta, FeatureDrive::kDt);
     const bool scan = i % 10 == 9;
     for (int b = 0; scan && b < 36; ++b) {
       const RayHit<D> hit = map.cast(truth.x, truth.y, truth.theta + lc.angle_min + b * lc.angle_inc);
-      ASSERT_TRUE(hit.hit);
-      ranges[b] = hit.range + noise(rng);
+      EXPECT_TRUE(hit.hit);
+      ranges[b] = hit.hit ? hit.range + noise(rng) : 0.0;
     }
     (void)est.cycle(u, FeatureDrive::kDt, scan ? ranges.data() : nullptr, typename Est::AkfT::NoObserver{});
   }
-  const D c_est = est.akf().state()[kC], c_sig = std::sqrt(est.akf().covariance()(kC, kC));
-  std::printf("feature_motion wheel_R += c ds_R_speed: estimate %.4f +- %.4f (truth 0.03)\n", c_est, c_sig);
-  EXPECT_LT(c_sig, 0.01) << "the drive determines the coefficient";
-  EXPECT_NEAR(c_est, 0.03, 3 * c_sig);
   EXPECT_EQ(est.akf().state()[kC + 1], 0.0);  // held slots stay exactly 0
   EXPECT_NEAR(est.akf().state()[0], truth.x, 0.02);
   EXPECT_NEAR(est.akf().state()[1], truth.y, 0.02);
+  return {est.akf().state()[kC], std::sqrt(est.akf().covariance()(kC, kC))};
+}
+
+TEST(FeatureEffects, WheelSpeedErrorIsEstimatedFromADriveOfVaryingSpeed) {
+  const auto [c_est, c_sig] = recoverMotionFeature(FM::kDsRSpeed, MT::kWheelR, 0.03, 0.1);
+  std::printf("feature_motion wheel_R += c ds_R_speed: estimate %.4f +- %.4f (truth 0.03)\n", c_est, c_sig);
+  EXPECT_LT(c_sig, 0.01) << "the drive determines the coefficient";
+  EXPECT_NEAR(c_est, 0.03, 3 * c_sig);
+}
+
+TEST(FeatureEffects, AccelerationSlipIsEstimatedFromADriveThatSpeedsUpAndSlowsDown) {
+  // Travel lost while speeding up (wheels that spin): along += c acc_pos_ds, c = -0.1 s^2/m.
+  // The drive's speed swings between 0.2 and 0.8 m/s every 14 s (about 0.13 m/s^2).
+  const auto [c_est, c_sig] = recoverMotionFeature(FM::kAccPosDs, MT::kAlong, -0.1, 0.3);
+  std::printf("feature_motion along += c acc_pos_ds: estimate %.4f +- %.4f (truth -0.1)\n", c_est, c_sig);
+  EXPECT_LT(c_sig, 0.1 / 3) << "the drive determines the coefficient";
+  EXPECT_NEAR(c_est, -0.1, 3 * c_sig);
 }
 
 TEST(FeatureEffects, RangeJacobiansAndTheHookAgreeWithTheHostFeatures) {

@@ -63,7 +63,7 @@ bool track(const Odolog& log, const OdoConstants& c, Track* tr, std::string* err
   tr->th.push_back(th);
   tr->dr.push_back(0);
   tr->dl.push_back(0);
-  MotionContext<double> ctx;
+  HistoryMotionContext<double> ctx;  // what FeatureMotion reads (its history features too)
   for (std::size_t k = 1; k < log.enc.size(); ++k) {
     const double ea = double(log.enc[k].a - log.enc[k - 1].a) / dc.ticks_a;
     const double eb = double(log.enc[k].b - log.enc[k - 1].b) / dc.ticks_b;
@@ -85,6 +85,7 @@ bool track(const Odolog& log, const OdoConstants& c, Track* tr, std::string* err
         side += term.coef * v.f * dir[2];
       }
       ctx.advance(r0, 0.5 * (ea + eb));
+      ctx.advanceHistory(r0, t0, ctx.dt);
     }
     const double m = th + 0.5 * dth;
     x += rho * std::cos(m) - side * std::sin(m);

@@ -108,6 +108,41 @@ struct WheelMotionContext : MotionContext<S> {
   ReversalOdometer<S> wheel_l{};  ///< the left wheel's
 };
 
+/// The motion context of a model with an effect that reads the motion's history (the feature
+/// effects: accelerations, jerk, turn-rate change, time since the start): the previous
+/// cycle's speeds, its acceleration and the time so far, advanced by Model::advanceContext.
+/// Only such models use it (host models; the firmware's keeps the plain MotionContext).
+template <typename S>
+struct HistoryMotionContext : WheelMotionContext<S> {
+  S v_prev = S(0);   ///< the previous cycle's forward speed rho / dt (m/s)
+  S w_prev = S(0);   ///< its turn rate theta / dt (rad/s)
+  S a_prev = S(0);   ///< its forward acceleration (m/s^2)
+  S t = S(0);        ///< the sum of the cycle durations so far (s)
+  int cycles = 0;    ///< cycles with a known duration so far (the rates need 1, the jerk 2)
+
+  /// Past a cycle of duration cycle_dt (<= 0: unknown, the history restarts) whose drive
+  /// increment was (rho, th).
+  void advanceHistory(S rho, S th, S cycle_dt) {
+    if (!(cycle_dt > S(0))) {
+      cycles = 0;
+      return;
+    }
+    const S v = rho / cycle_dt;
+    a_prev = cycles >= 1 ? (v - v_prev) / cycle_dt : S(0);
+    v_prev = v;
+    w_prev = th / cycle_dt;
+    t += cycle_dt;
+    ++cycles;
+  }
+};
+
+/// Whether an effect reads the motion's history: it declares `static constexpr bool kHistory
+/// = true` and takes a `const HistoryMotionContext<S>&` in apply().
+template <typename E, typename = void>
+struct UsesHistory : std::false_type {};
+template <typename E>
+struct UsesHistory<E, std::void_t<decltype(E::kHistory)>> : std::bool_constant<E::kHistory> {};
+
 /// Whether an effect needs the wheels' reversal odometers: it declares
 /// `static constexpr bool kWheelOdometers = true`, `wheels(increment, &right, &left)` (the
 /// split), and takes a `const WheelMotionContext<S>&` in apply().
@@ -180,13 +215,17 @@ class Model {
   /// and its wheel odometers are advanced (compile-time gate: models without such an effect,
   /// the firmware's among them, neither store nor compute them).
   static constexpr bool kHasWheelOdometers = (false || ... || UsesWheelOdometers<Effects>::value);
+  /// Some effect reads the motion's history: the context is a HistoryMotionContext.
+  static constexpr bool kHasHistory = (false || ... || UsesHistory<Effects>::value);
   static constexpr int kParams = Drive::kParams + kEffectParams;
   static constexpr int kStates = PoseIdx::kDim + kParams;
   static constexpr int kNoise = Drive::kNoise;
   static constexpr int kNonSys = Drive::kNonSys;
 
   /// What the motion effects of this model depend on.
-  using Context = std::conditional_t<kHasWheelOdometers, WheelMotionContext<S>, MotionContext<S>>;
+  using Context = std::conditional_t<
+      kHasHistory, HistoryMotionContext<S>,
+      std::conditional_t<kHasWheelOdometers, WheelMotionContext<S>, MotionContext<S>>>;
 
   using StateVec = Eigen::Matrix<S, kStates, 1>;
   using StateMat = Eigen::Matrix<S, kStates, kStates>;
@@ -235,7 +274,7 @@ class Model {
       // firmware's, which passes nullptr, included) changed how GCC compiled the cycle and
       // cost 22 instructions per cycle on the Cortex-M4F.
       drive_inc->rho = inc.rho;
-      if constexpr (kHasWheelOdometers) drive_inc->theta = inc.theta;
+      if constexpr (kHasWheelOdometers || kHasHistory) drive_inc->theta = inc.theta;
     }
     if (d_state != nullptr) {
       d_state->setZero();
@@ -248,9 +287,11 @@ class Model {
 
   /// Advances the motion context's odometers past a cycle: drive_inc is the drive model's
   /// increment before the effects, enc the encoders' signed travel. The wheel odometers only
-  /// when an effect needs them (split by the first such effect's wheels()).
+  /// when an effect needs them (split by the first such effect's wheels()); the history
+  /// (speeds, acceleration, time) only when an effect reads it, with the context's dt.
   void advanceContext(Context& ctx, const Increment<S>& drive_inc, S enc) const {
     ctx.advance(drive_inc.rho, enc);
+    if constexpr (kHasHistory) ctx.advanceHistory(drive_inc.rho, drive_inc.theta, ctx.dt);
     if constexpr (kHasWheelOdometers) {
       S r = drive_inc.rho;
       S l = drive_inc.rho;

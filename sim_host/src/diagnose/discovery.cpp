@@ -323,7 +323,15 @@ Residuals Discovery<En>::analyse(const RunOut& run, Scales* scales) const {
   for (MotionTarget t : {MotionTarget::kWorldX, MotionTarget::kWorldY})
     for (MotionFeature f : {MotionFeature::kAbsDs, MotionFeature::kDt}) motion(f, t);
   terms.push_back({Term::Kind::kReversal, MotionFeature::kNone, MotionTarget::kAlong});
+  // The motion's history: travel lost or gained while speeding up or braking, a turn that
+  // follows the turn rate's change, a drag just after reversals.
+  motion(MotionFeature::kAccPosDs, MotionTarget::kAlong);
+  motion(MotionFeature::kAccNegDs, MotionTarget::kAlong);
+  motion(MotionFeature::kDwDs, MotionTarget::kHeading);
+  motion(MotionFeature::kRevNearDs, MotionTarget::kAlong);
   if constexpr (!kSync) {
+    motion(MotionFeature::kAccRDs, MotionTarget::kWheelR);
+    motion(MotionFeature::kAccLDs, MotionTarget::kWheelL);
     motion(MotionFeature::kDsRSpeed, MotionTarget::kWheelR);
     motion(MotionFeature::kDsLSpeed, MotionTarget::kWheelL);
     motion(MotionFeature::kAbsDs, MotionTarget::kWheelR);
@@ -352,7 +360,9 @@ Residuals Discovery<En>::analyse(const RunOut& run, Scales* scales) const {
     Eigen::MatrixXd a;  // 3 x terms
   };
   std::vector<Seg> segs;
-  typename M::Context ctx;
+  // The model's context, with the motion's history for the history features whether or not
+  // the model reads it (a HistoryMotionContext is every model's Context or derives from it).
+  HistoryMotionContext<S> ctx;
   int last_sign[3] = {0, 0, 0};  // robot, right wheel, left wheel
   std::size_t next_bound = 0;
   Pose<S> pp{};
@@ -406,6 +416,7 @@ Residuals Discovery<En>::analyse(const RunOut& run, Scales* scales) const {
       if (sg != 0) last_sign[w] = sg;
     }
     model.advanceContext(ctx, drive_inc, Drive::encoderTravel(u));
+    if constexpr (!M::kHasHistory) ctx.advanceHistory(dinc.rho, dinc.theta, e.dt);
     // A boundary: close the open segment, open the next.
     if (next_bound < bounds.size() && post[static_cast<std::size_t>(bounds[next_bound])].event == static_cast<int>(k)) {
       const LaserPose& q = lp[static_cast<std::size_t>(bounds[next_bound])];

@@ -321,9 +321,10 @@ bool writeSuggestion(const std::string& dir, const std::vector<Term>& terms, con
     f << "};  // TODO: how large it may plausibly be\n  static constexpr double kReference[kParams] = {";
     for (std::size_t k = 0; k < motion.size(); ++k) f << (k ? ", " : "") << std::abs(coef[motion[k]]);
     f << "};\n  static constexpr bool kUsesHeading = true;  // the features may read the heading\n"
+         "  static constexpr bool kHistory = true;      // ... and the motion's history (accelerations)\n"
          "  double wheelbase = 0.5, xc = 0, yc = 0;  // set where the model is composed\n"
          "  template <typename S>\n"
-         "  Increment<S> apply(const Increment<S>& in, const S* p, const MotionContext<S>& ctx,\n"
+         "  Increment<S> apply(const Increment<S>& in, const S* p, const HistoryMotionContext<S>& ctx,\n"
          "                     Eigen::Matrix<S, 3, 3>& d_in, Eigen::Matrix<S, 3, kParams>& d_p) const {\n"
          "    startJacobians(d_in, d_p);\n    Increment<S> out = in;\n"
          "    auto add = [&](int i, MotionFeature feat, MotionTarget target) {\n"

@@ -49,6 +49,7 @@ struct FeatureMotion : NominalZero<FeatureMotion<N>> {
       "a motion error found by residual discovery: a sum of coefficient x feature, each on its target";
   static constexpr const char* const* kParamNames = feature_detail::kSlotNames;  ///< c0..c{N-1}
   static constexpr bool kUsesHeading = true;     ///< the filter fills MotionContext::heading
+  static constexpr bool kHistory = true;         ///< the history features (HistoryMotionContext)
   static constexpr bool kConfiguredPrior = true;  ///< priors per slot: priorSigma(effect, i)
 
   struct Slot {
@@ -77,12 +78,12 @@ struct FeatureMotion : NominalZero<FeatureMotion<N>> {
 
   /// Slot i's feature value in a cycle (what the host regresses on), for the increment in.
   template <typename S>
-  FeatureValue<S> feature(int i, const Increment<S>& in, const MotionContext<S>& ctx) const {
+  FeatureValue<S> feature(int i, const Increment<S>& in, const HistoryMotionContext<S>& ctx) const {
     return motionFeature(slots[i].feature, in.rho, in.theta, ctx, S(wheelbase), S(xc), S(yc));
   }
 
   template <typename S>
-  Increment<S> apply(const Increment<S>& in, const S* p, const MotionContext<S>& ctx,
+  Increment<S> apply(const Increment<S>& in, const S* p, const HistoryMotionContext<S>& ctx,
                      Eigen::Matrix<S, 3, 3>& d_in, Eigen::Matrix<S, 3, kParams>& d_p) const {
     startJacobians(d_in, d_p);
     Increment<S> out = in;

@@ -12,8 +12,10 @@
 // Everything is templated on the scalar, allocation-free and exception-free.
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <type_traits>
 
 #include "odoerr/map.hpp"
 #include "odoerr/model.hpp"
@@ -51,6 +53,19 @@ enum class MotionFeature : std::uint8_t {
   kYDs,           ///< y_ds = (y - yc) |rho| (m^2)
   kSDs,           ///< s_ds = s_abs |rho| (m^2)
   kDt,            ///< dt = dt (s)
+  // The motion's history (HistoryMotionContext: v_prev, w_prev, a_prev of the previous
+  // cycle, t the time so far). With v = rho / dt, w = th / dt, a = (v - v_prev) / dt and
+  // alpha = (w - w_prev) / dt; 0 while the history is too short (a needs one earlier cycle
+  // of known duration, the jerk two) or in a context without history.
+  kAccDs,         ///< acc_ds = a |rho| (m^2/s^2): travel gained or lost in proportion to the acceleration
+  kAccPosDs,      ///< acc_pos_ds = max(a, 0) |rho| (m^2/s^2): only while speeding up (wheels that spin)
+  kAccNegDs,      ///< acc_neg_ds = min(a, 0) |rho| (m^2/s^2): only while braking (wheels that skid)
+  kAccRDs,        ///< acc_R_ds = a_R |R|, a_R = a + alpha d/2 (m^2/s^2): the right wheel's acceleration
+  kAccLDs,        ///< acc_L_ds = a_L |L|, a_L = a - alpha d/2 (m^2/s^2): the left wheel's
+  kJerkDs,        ///< jerk_ds = (a - a_prev) / dt |rho| (m^2/s^3)
+  kDwDs,          ///< dw_ds = alpha |rho| (m rad/s^2): the turn rate's change
+  kRevNearDs,     ///< rev_near_ds = exp(-s_rev / 0.25 m) |rho| (m): travel just after a reversal
+  kTDs,           ///< t_ds = t |rho| (m s): the time since the start
   kCount
 };
 constexpr int kMotionFeatureCount = static_cast<int>(MotionFeature::kCount);
@@ -105,11 +120,14 @@ constexpr int kBeamFeatureCount = static_cast<int>(BeamFeature::kCount);
 
 namespace feature_detail {
 inline constexpr const char* kMotionFeatureNames[kMotionFeatureCount] = {
-    "none",   "ds",   "abs_ds", "dth",           "abs_dth",        "ds_R", "ds_L", "ds_R_speed", "ds_L_speed",
-    "v_w",    "v2",   "w2",     "cos_heading_ds", "sin_heading_ds", "x_ds", "y_ds", "s_ds",       "dt"};
+    "none",     "ds",         "abs_ds",     "dth",           "abs_dth",        "ds_R",     "ds_L",
+    "ds_R_speed", "ds_L_speed", "v_w",      "v2",            "w2",             "cos_heading_ds", "sin_heading_ds",
+    "x_ds",     "y_ds",       "s_ds",       "dt",            "acc_ds",         "acc_pos_ds", "acc_neg_ds",
+    "acc_R_ds", "acc_L_ds",   "jerk_ds",    "dw_ds",         "rev_near_ds",    "t_ds"};
 inline constexpr const char* kMotionFeatureUnits[kMotionFeatureCount] = {
-    "1", "m", "m", "rad", "rad", "m", "m", "m^2/s", "m^2/s", "m*rad/s", "m^2/s", "rad^2/s", "m", "m", "m^2", "m^2",
-    "m^2", "s"};
+    "1",       "m",       "m",       "rad",     "rad",     "m",        "m",       "m^2/s", "m^2/s",
+    "m*rad/s", "m^2/s",   "rad^2/s", "m",       "m",       "m^2",      "m^2",     "m^2",   "s",
+    "m^2/s^2", "m^2/s^2", "m^2/s^2", "m^2/s^2", "m^2/s^2", "m^2/s^3",  "m*rad/s^2", "m",   "m*s"};
 inline constexpr const char* kMotionTargetNames[kMotionTargetCount] = {"along",   "cross",   "heading", "world_x",
                                                                 "world_y", "wheel_R", "wheel_L"};
 inline constexpr const char* kMotionTargetUnits[kMotionTargetCount] = {"m", "m", "rad", "m", "m", "m", "m"};
@@ -183,12 +201,69 @@ struct FeatureValue {
   S d_th = S(0);
 };
 
-/// Motion feature f of a cycle with increment (rho, th) in context ctx (dt, heading,
-/// position, s_abs at the cycle's start); `wheelbase` is d, (xc, yc) the map centre.
+/// Whether feature f reads the motion's history (HistoryMotionContext).
+constexpr bool isHistoryFeature(MotionFeature f) {
+  return f == MotionFeature::kAccDs || f == MotionFeature::kAccPosDs || f == MotionFeature::kAccNegDs ||
+         f == MotionFeature::kAccRDs || f == MotionFeature::kAccLDs || f == MotionFeature::kJerkDs ||
+         f == MotionFeature::kDwDs || f == MotionFeature::kTDs;
+}
+
+/// A history feature (isHistoryFeature) of a cycle with increment (rho, th) after the
+/// history h; d is the wheelbase.
 template <typename S>
-inline FeatureValue<S> motionFeature(MotionFeature f, S rho, S th, const MotionContext<S>& ctx, S wheelbase,
-                                     S xc, S yc) {
+inline FeatureValue<S> historyFeature(MotionFeature f, S rho, S th, const HistoryMotionContext<S>& h, S d) {
   using feature_detail::sgn;
+  FeatureValue<S> v;
+  const S a_rho = std::abs(rho), s_rho = sgn(rho);
+  if (f == MotionFeature::kTDs) return {h.t * a_rho, h.t * s_rho, S(0)};
+  if (!(h.dt > S(0)) || h.cycles < 1) return v;
+  const S inv_dt = S(1) / h.dt, inv_dt2 = inv_dt * inv_dt, half_d = S(0.5) * d;
+  const S a = (rho * inv_dt - h.v_prev) * inv_dt;
+  const S alpha = (th * inv_dt - h.w_prev) * inv_dt;
+  switch (f) {
+    case MotionFeature::kAccDs:
+      v = {a * a_rho, inv_dt2 * a_rho + a * s_rho, S(0)};
+      break;
+    case MotionFeature::kAccPosDs:
+      if (a > S(0)) v = {a * a_rho, inv_dt2 * a_rho + a * s_rho, S(0)};
+      break;
+    case MotionFeature::kAccNegDs:
+      if (a < S(0)) v = {a * a_rho, inv_dt2 * a_rho + a * s_rho, S(0)};
+      break;
+    case MotionFeature::kAccRDs: {
+      const S r = rho + th * half_d, ar = a + alpha * half_d, ab = std::abs(r), sg = sgn(r);
+      v = {ar * ab, inv_dt2 * ab + ar * sg, half_d * (inv_dt2 * ab + ar * sg)};
+      break;
+    }
+    case MotionFeature::kAccLDs: {
+      const S l = rho - th * half_d, al = a - alpha * half_d, ab = std::abs(l), sg = sgn(l);
+      v = {al * ab, inv_dt2 * ab + al * sg, -half_d * (inv_dt2 * ab + al * sg)};
+      break;
+    }
+    case MotionFeature::kJerkDs:
+      if (h.cycles >= 2) {
+        const S j = (a - h.a_prev) * inv_dt;
+        v = {j * a_rho, inv_dt2 * inv_dt * a_rho + j * s_rho, S(0)};
+      }
+      break;
+    case MotionFeature::kDwDs:
+      v = {alpha * a_rho, alpha * s_rho, inv_dt2 * a_rho};
+      break;
+    default:
+      break;
+  }
+  return v;
+}
+
+/// Motion feature f of a cycle with increment (rho, th) in context ctx (dt, heading,
+/// position, s_abs at the cycle's start); `wheelbase` is d, (xc, yc) the map centre. The
+/// history features need a HistoryMotionContext (in any other context they are 0).
+template <typename S, typename Ctx>
+inline FeatureValue<S> motionFeature(MotionFeature f, S rho, S th, const Ctx& ctx, S wheelbase, S xc, S yc) {
+  using feature_detail::sgn;
+  if constexpr (std::is_base_of_v<HistoryMotionContext<S>, Ctx>) {
+    if (isHistoryFeature(f)) return historyFeature(f, rho, th, static_cast<const HistoryMotionContext<S>&>(ctx), wheelbase);
+  }
   const S half_d = S(0.5) * wheelbase;
   const S inv_dt = ctx.dt > S(0) ? S(1) / ctx.dt : S(0);  // rate features vanish when dt is unknown
   const S a_rho = std::abs(rho), s_rho = sgn(rho);
@@ -249,6 +324,19 @@ inline FeatureValue<S> motionFeature(MotionFeature f, S rho, S th, const MotionC
     case MotionFeature::kDt:
       v = {ctx.dt > S(0) ? ctx.dt : S(0), S(0), S(0)};
       break;
+    case MotionFeature::kRevNearDs: {
+      const S e = std::exp(-ctx.s_rev / S(0.25));  // s_rev is infinite before the first reversal
+      v = {e * a_rho, e * s_rho, S(0)};
+      break;
+    }
+    case MotionFeature::kAccDs:
+    case MotionFeature::kAccPosDs:
+    case MotionFeature::kAccNegDs:
+    case MotionFeature::kAccRDs:
+    case MotionFeature::kAccLDs:
+    case MotionFeature::kJerkDs:
+    case MotionFeature::kDwDs:
+    case MotionFeature::kTDs:  // history features: above, or 0 without a history
     case MotionFeature::kNone:
     case MotionFeature::kCount:
       break;
