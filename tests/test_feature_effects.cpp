@@ -43,10 +43,8 @@ TEST(FeatureEffects, MotionJacobiansMatchFiniteDifferences) {
       featureMotion({{FM::kV2, MT::kAlong}, {FM::kSDs, MT::kCross}, {FM::kDth, MT::kWorldX}, {FM::kDsL, MT::kWorldY}}),
       featureMotion({{FM::kDs, MT::kWheelR}, {FM::kSinHeadingDs, MT::kWheelL}, {FM::kYDs, MT::kAlong}, {FM::kDt, MT::kCross}}),
       featureMotion({{FM::kDsR, MT::kHeading}, {FM::kDsRSpeed, MT::kWorldX}, {FM::kDsLSpeed, MT::kCross}, {FM::kVW, MT::kWheelL}}),
-      // the history features
-      featureMotion({{FM::kAccDs, MT::kAlong}, {FM::kAccPosDs, MT::kWheelR}, {FM::kAccNegDs, MT::kCross}, {FM::kJerkDs, MT::kHeading}}),
-      featureMotion({{FM::kAccRDs, MT::kWheelR}, {FM::kAccLDs, MT::kWheelL}, {FM::kDwDs, MT::kHeading}, {FM::kRevNearDs, MT::kAlong}}),
-      featureMotion({{FM::kTDs, MT::kWorldX}, {FM::kAccDs, MT::kWheelL}, {FM::kDwDs, MT::kAlong}, {FM::kJerkDs, MT::kCross}}),
+      // the features without a rate (the rate-held history features: below)
+      featureMotion({{FM::kRevNearDs, MT::kAlong}, {FM::kTDs, MT::kWorldX}, {FM::kRevNearDs, MT::kWheelL}, {FM::kTDs, MT::kHeading}}),
   };
   for (const MF& e : configs) {
     for (const Increment<D>& in : {Increment<D>{0.012, 0.004, 0.0003}, Increment<D>{-0.012, 0.03, 0.0003},
@@ -115,6 +113,24 @@ TEST(FeatureEffects, HistoryFeaturesFromThePreviousCycles) {
   // braking: only acc_neg_ds
   EXPECT_LT(motionFeature(FM::kAccNegDs, 0.008, 0.0, h, d, 0.0, 0.0).f, 0.0);
   EXPECT_EQ(motionFeature(FM::kAccPosDs, 0.008, 0.0, h, d, 0.0, 0.0).f, 0.0);
+  // Partial derivatives with the rates held (features.hpp, historyFeature): against central
+  // differences of the feature in a history shifted so that a, alpha and the jerk stay fixed.
+  for (const FM m : {FM::kAccDs, FM::kAccPosDs, FM::kAccNegDs, FM::kAccRDs, FM::kAccLDs, FM::kJerkDs, FM::kDwDs,
+                     FM::kTDs}) {
+    for (const std::pair<D, D>& inc : {std::pair<D, D>{0.012, 0.010}, {0.004, -0.02}, {-0.009, 0.015}}) {
+      const D r0 = inc.first, t0 = inc.second;  // plain names: a lambda cannot capture a structured binding
+      const FeatureValue<D> v = motionFeature(m, r0, t0, h, d, 0.0, 0.0);
+      const D e = 1e-7;
+      auto held = [&](D dr, D dth) {  // the history moved with the increment: the rates unchanged
+        HistoryMotionContext<D> g = h;
+        g.v_prev += dr / g.dt;
+        g.w_prev += dth / g.dt;
+        return motionFeature(m, r0 + dr, t0 + dth, g, d, 0.0, 0.0).f;
+      };
+      EXPECT_NEAR(v.d_rho, (held(e, 0) - held(-e, 0)) / (2 * e), 1e-6 * (1 + std::abs(v.d_rho))) << static_cast<int>(m);
+      EXPECT_NEAR(v.d_th, (held(0, e) - held(0, -e)) / (2 * e), 1e-6 * (1 + std::abs(v.d_th))) << static_cast<int>(m);
+    }
+  }
   // an unknown duration restarts the history; a context without history gives 0
   h.advanceHistory(0.01, 0.0, 0.0);
   EXPECT_EQ(motionFeature(FM::kAccDs, 0.012, 0.0, h, d, 0.0, 0.0).f, 0.0);

@@ -7,6 +7,7 @@
 #include <tuple>
 
 #include "odoerr/effects/catalogue.hpp"
+#include "odoerr/effects/feature_effects.hpp"
 #include "odoerr/map.hpp"
 #include "odoerr/motion.hpp"
 #include "odoerr/sim/random.hpp"
@@ -75,6 +76,31 @@ bool parseEffectArg(const std::string& arg, EffectSimConfig* cfg, std::string* e
     return false;
   }
   const std::string name = arg.substr(0, eq);
+  if (name.rfind("feature:", 0) == 0) {
+    const std::string spec = name.substr(8);
+    const auto at = spec.find('@');
+    effects::MotionFeature f;
+    effects::MotionTarget t;
+    if (at == std::string::npos || !effects::parseMotionFeature(spec.substr(0, at).c_str(), &f) ||
+        !effects::parseMotionTarget(spec.substr(at + 1).c_str(), &t) || f == effects::MotionFeature::kNone) {
+      *error = "effect '" + arg + "': expected feature:FEATURE@TARGET=C with a motion feature and target of "
+               "docs/effect-catalogue.md";
+      return false;
+    }
+    char* end = nullptr;
+    const std::string tok = arg.substr(eq + 1);
+    const double c = std::strtod(tok.c_str(), &end);
+    if (tok.empty() || end == nullptr || *end != '\0' || !std::isfinite(c)) {
+      *error = "effect '" + arg + "': '" + tok + "' is not a finite number";
+      return false;
+    }
+    if (cfg->features.size() >= 4) {
+      *error = "effect '" + arg + "': at most 4 feature terms";
+      return false;
+    }
+    cfg->features.push_back({spec.substr(0, at), spec.substr(at + 1), c});
+    return true;
+  }
   std::vector<double> vals;
   std::size_t at = eq + 1;
   while (at <= arg.size()) {
@@ -209,6 +235,7 @@ bool simulateEffectDrive(const EffectSimConfig& cfg, std::string* text, std::str
     for (double v : vals) line(" %.9g", v);
     out += "\n";
   }
+  for (const auto& ft : cfg.features) line("meta truth_feature %s@%s %.9g\n", ft.feature.c_str(), ft.target.c_str(), ft.coef);
   line("drive %s\n", sync ? "sync" : "diff");
   if (sync) {
     line("param ticks_per_m %.9g\nparam ticks_per_rad %.9g\nparam wheel_radius_m %.9g\n", kSyncTicks, kSyncTicks,
@@ -226,8 +253,25 @@ bool simulateEffectDrive(const EffectSimConfig& cfg, std::string* text, std::str
   std::mt19937_64 rng(cfg.seed * 0x9E3779B97F4A7C15ull + 17);
   odoerr::sim::NormalDist<double> n01(0.0, 1.0);
   Pose<double> plan = truth;
-  WheelMotionContext<double> ctx;  // what every catalogue effect may depend on
+  HistoryMotionContext<double> ctx;  // what every catalogue effect and feature term may depend on
   ctx.dt = kDt;
+  // The injected feature terms, as the estimator's FeatureMotion applies them.
+  effects::FeatureMotion<4> feature_truth;
+  double feature_coef[4] = {0, 0, 0, 0};
+  feature_truth.wheelbase = kWheelbase;
+  feature_truth.xc = 5.0;  // the room's centre
+  feature_truth.yc = 5.0;
+  for (std::size_t i = 0; i < cfg.features.size() && i < 4; ++i) {
+    effects::MotionFeature f;
+    effects::MotionTarget t;
+    if (!effects::parseMotionFeature(cfg.features[i].feature.c_str(), &f) ||
+        !effects::parseMotionTarget(cfg.features[i].target.c_str(), &t) ||
+        !feature_truth.configure(static_cast<int>(i), f, t, 0.0, 0.0)) {
+      *error = "feature term '" + cfg.features[i].feature + "@" + cfg.features[i].target + "' is unknown";
+      return false;
+    }
+    feature_coef[i] = cfg.features[i].coef;
+  }
   std::vector<Pose<double>> history{truth};
   double pos_a = 0, pos_b = 0;
   std::int64_t cnt_a = 0, cnt_b = 0;
@@ -311,8 +355,14 @@ bool simulateEffectDrive(const EffectSimConfig& cfg, std::string* text, std::str
         inc = inst.apply(inc, it->second.data(), ctx, d_in, d_p);
       }
     });
+    if (!cfg.features.empty()) {
+      Eigen::Matrix3d d_in;
+      Eigen::Matrix<double, 3, 4> d_p;
+      inc = feature_truth.apply(inc, feature_coef, ctx, d_in, d_p);
+    }
     const double turn_noise = q_turn > 0 ? std::sqrt(q_turn * std::abs(inc.theta)) * n01(rng) : 0.0;
     ctx.advance(drive_inc.rho, sync ? da : 0.5 * (da + db));
+    ctx.advanceHistory(drive_inc.rho, drive_inc.theta, kDt);
     if (!sync) {  // each wheel's own reversal odometer (per-wheel effects)
       double r, l;
       wheels.wheels(drive_inc, &r, &l);

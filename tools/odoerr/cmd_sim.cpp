@@ -336,7 +336,8 @@ void registerSimCommands(CLI::App& app, cli::Commands& cmds) {
                   "paper (the Section 5 circle) or excite (figure-eights at three speeds, reversals; "
                   "implied by --effect)")
       ->check(CLI::IsMember({"paper", "excite"}));
-  sim->add_option("--effect", so->effects, "inject a catalogue effect: NAME=V1[,V2...] (repeatable)");
+  sim->add_option("--effect", so->effects,
+                  "inject a catalogue effect: NAME=V1[,V2...], or a feature term: feature:FEATURE@TARGET=C (repeatable)");
   sim->add_option("--minutes", so->minutes, "length of an excite drive")->check(CLI::Range(0.05, 600.0));
   auto* sim_map = sim->add_option("--map", so->map,
                                   "drive through this map (.odomap, or an odolog's walls): a diff drive along --path "

@@ -210,6 +210,13 @@ constexpr bool isHistoryFeature(MotionFeature f) {
 
 /// A history feature (isHistoryFeature) of a cycle with increment (rho, th) after the
 /// history h; d is the wheelbase.
+///
+/// Its partial derivatives hold the rates (a, alpha, the jerk) fixed: they leave out the
+/// rates' own dependence on this cycle's increment (1/dt^2, 1/dt^3 times the increment's
+/// error). That dependence cancels over the next cycle, whose rate sees the same error with
+/// the opposite sign (the sum of a |rho| over cycles telescopes), but a filter that keeps no
+/// earlier increment in its state cannot see the cancellation: with it, the covariance took
+/// the encoders' noise 1/dt^2 times over and the model with the feature predicted worse.
 template <typename S>
 inline FeatureValue<S> historyFeature(MotionFeature f, S rho, S th, const HistoryMotionContext<S>& h, S d) {
   using feature_detail::sgn;
@@ -217,37 +224,37 @@ inline FeatureValue<S> historyFeature(MotionFeature f, S rho, S th, const Histor
   const S a_rho = std::abs(rho), s_rho = sgn(rho);
   if (f == MotionFeature::kTDs) return {h.t * a_rho, h.t * s_rho, S(0)};
   if (!(h.dt > S(0)) || h.cycles < 1) return v;
-  const S inv_dt = S(1) / h.dt, inv_dt2 = inv_dt * inv_dt, half_d = S(0.5) * d;
+  const S inv_dt = S(1) / h.dt, half_d = S(0.5) * d;
   const S a = (rho * inv_dt - h.v_prev) * inv_dt;
   const S alpha = (th * inv_dt - h.w_prev) * inv_dt;
   switch (f) {
     case MotionFeature::kAccDs:
-      v = {a * a_rho, inv_dt2 * a_rho + a * s_rho, S(0)};
+      v = {a * a_rho, a * s_rho, S(0)};
       break;
     case MotionFeature::kAccPosDs:
-      if (a > S(0)) v = {a * a_rho, inv_dt2 * a_rho + a * s_rho, S(0)};
+      if (a > S(0)) v = {a * a_rho, a * s_rho, S(0)};
       break;
     case MotionFeature::kAccNegDs:
-      if (a < S(0)) v = {a * a_rho, inv_dt2 * a_rho + a * s_rho, S(0)};
+      if (a < S(0)) v = {a * a_rho, a * s_rho, S(0)};
       break;
     case MotionFeature::kAccRDs: {
-      const S r = rho + th * half_d, ar = a + alpha * half_d, ab = std::abs(r), sg = sgn(r);
-      v = {ar * ab, inv_dt2 * ab + ar * sg, half_d * (inv_dt2 * ab + ar * sg)};
+      const S r = rho + th * half_d, ar = a + alpha * half_d, sg = sgn(r);
+      v = {ar * std::abs(r), ar * sg, half_d * ar * sg};
       break;
     }
     case MotionFeature::kAccLDs: {
-      const S l = rho - th * half_d, al = a - alpha * half_d, ab = std::abs(l), sg = sgn(l);
-      v = {al * ab, inv_dt2 * ab + al * sg, -half_d * (inv_dt2 * ab + al * sg)};
+      const S l = rho - th * half_d, al = a - alpha * half_d, sg = sgn(l);
+      v = {al * std::abs(l), al * sg, -half_d * al * sg};
       break;
     }
     case MotionFeature::kJerkDs:
       if (h.cycles >= 2) {
         const S j = (a - h.a_prev) * inv_dt;
-        v = {j * a_rho, inv_dt2 * inv_dt * a_rho + j * s_rho, S(0)};
+        v = {j * a_rho, j * s_rho, S(0)};
       }
       break;
     case MotionFeature::kDwDs:
-      v = {alpha * a_rho, alpha * s_rho, inv_dt2 * a_rho};
+      v = {alpha * a_rho, alpha * s_rho, S(0)};
       break;
     default:
       break;

@@ -24,13 +24,22 @@ struct EffectSimConfig {
   double minutes = 4.0;
   /// Injected effects: name -> parameter values in the catalogue's order.
   std::map<std::string, std::vector<double>> effects;
+  /// Injected feature terms (`feature:FEATURE@TARGET=C`, effects/features.hpp): the truth's
+  /// increment gains C x feature on the target, applied by FeatureMotion after the catalogue's
+  /// effects (what discovery can put back into the model). At most 4.
+  struct FeatureTerm {
+    std::string feature, target;
+    double coef = 0;
+  };
+  std::vector<FeatureTerm> features;
 };
 
 /// Writes the drive as odolog v1 text. False with *error for an unknown effect or a wrong
 /// number of values.
 bool simulateEffectDrive(const EffectSimConfig& cfg, std::string* odolog, std::string* error);
 
-/// Parses "name=v1,v2,..." into cfg->effects. False with *error on malformed text.
+/// Parses "name=v1,v2,..." into cfg->effects, or "feature:FEATURE@TARGET=C" into
+/// cfg->features. False with *error on malformed text or an unknown name.
 bool parseEffectArg(const std::string& arg, EffectSimConfig* cfg, std::string* error);
 
 /// The catalogue's effect names and parameter counts (for messages and tests).
