@@ -1,20 +1,18 @@
 // STM32F405 start-up: the vector table (16 core exceptions and the 82 interrupts of RM0090
-// 12.2, table 61), FPU on, .data and .bss, a painted stack (stack_paint.hpp), static
-// constructors, main, and the exit code through semihosting (the only console under QEMU; on
-// a board without a debugger the application reports over its telemetry instead).
+// 12.2, table 61). The reset sequence is the boards' common one (common/cortex_m_reset.hpp):
+// FPU on, .data and .bss, a painted stack, static constructors, main, and the exit code
+// through semihosting (the only console under QEMU; on a board without a debugger the
+// application reports over its telemetry instead).
 #include <array>
 #include <cstddef>
 #include <cstdint>
 
+#include "cortex_m_reset.hpp"
 #include "cortex_m_vectors.hpp"
 #include "semihosting.hpp"
-#include "stack_paint.hpp"
 
 extern "C" {
-extern std::uint32_t _sidata, _sdata, _edata, _sbss, _ebss, _estack;
-extern void (*__init_array_start[])();
-extern void (*__init_array_end[])();
-int odoerr_call_main();
+extern std::uint32_t _estack;
 void Reset_Handler();
 void Fault_Handler();
 void Unused_Handler();
@@ -57,13 +55,5 @@ __attribute__((section(".isr_vector"), used)) const Vectors g_vectors = {
 };
 
 __attribute__((section(".text.Reset_Handler"))) void Reset_Handler() {
-  // Full access to CP10/CP11 (the FPU) before any floating-point instruction.
-  volatile std::uint32_t* cpacr = reinterpret_cast<volatile std::uint32_t*>(0xE000ED88u);
-  *cpacr |= (0xFu << 20);
-  __asm__ volatile("dsb\n isb" ::: "memory");
-  for (std::uint32_t *src = &_sidata, *dst = &_sdata; dst < &_edata;) *dst++ = *src++;
-  for (std::uint32_t* dst = &_sbss; dst < &_ebss;) *dst++ = 0;
-  odoerr::board::paintStack();
-  for (auto* f = __init_array_start; f < __init_array_end; ++f) (*f)();
-  odoerr::board::shExit(odoerr_call_main());
+  odoerr::board::resetSequence();
 }

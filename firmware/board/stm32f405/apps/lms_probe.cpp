@@ -31,7 +31,7 @@ extern "C" void USART1_IRQHandler() {
 }
 
 int main() {
-  const st::ClockTree clk = st::configureClocks(8000000u);
+  const st::ClockTree clk = st::configureClocks(st::kHseHz);
   st::enableRobotPeripherals();
 
   st::UsartRegs& u1 = st::at<st::UsartRegs>(st::kUsart1Base);

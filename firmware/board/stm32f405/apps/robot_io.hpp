@@ -13,6 +13,7 @@
 
 namespace odoerr::board::stm32f405 {
 
+inline constexpr std::uint32_t kHseHz = 8000000u;  // the board's crystal (configureClocks)
 inline constexpr int kUsart1Irq = 37;  // RM0090 table 61
 inline constexpr std::uint32_t kLaserBaud = 500000u;
 inline constexpr std::uint32_t kTelemetryBaud = 115200u;
