@@ -30,9 +30,12 @@ json detectionPower(const std::vector<EffectInfo>& fx, const std::vector<Candida
                 {"kind", f.kind == EffectKind::kMotion  ? "motion"
                          : f.kind == EffectKind::kNoise ? "noise"
                                                         : "measurement"}};
+    // A parameter the drive informs, with a sigma to scale: the test's degrees of freedom.
+    auto informed = [&c](int i) {
+      return i < static_cast<int>(c.informed.size()) && c.informed[i] && std::isfinite(c.sig[i]) && c.sig[i] > 0;
+    };
     int k = 0;
-    for (int i = 0; i < f.n; ++i)
-      if (i < static_cast<int>(c.informed.size()) && c.informed[i] && std::isfinite(c.sig[i]) && c.sig[i] > 0) ++k;
+    for (int i = 0; i < f.n; ++i) k += informed(i) ? 1 : 0;
     std::string why;
     if (f.kind == EffectKind::kNoise) {
       why = "a noise effect is tested on its likelihood profile, which gives no sigma to scale";
@@ -48,10 +51,8 @@ json detectionPower(const std::vector<EffectInfo>& fx, const std::vector<Candida
       lambda = noncentralityForPower(k, threshold, kDetectionPower);
     }
     for (int i = 0; i < f.n; ++i) {
-      const bool informed = i < static_cast<int>(c.informed.size()) && c.informed[i] && std::isfinite(c.sig[i]) &&
-                            c.sig[i] > 0;
       json p = {{"name", f.pnames[i]}, {"reference_size", f.ref[i]}};
-      if (why.empty() && informed) {
+      if (why.empty() && informed(i)) {
         const double mde = c.sig[i] * std::sqrt(lambda);
         p["min_detectable"] = mde;
         p["sigma"] = c.sig[i];
