@@ -150,6 +150,47 @@ TEST(FeatureEffects, HistoryFeaturesFromThePreviousCycles) {
   EXPECT_NEAR(c.t, 0.04, 1e-15);
 }
 
+TEST(FeatureEffects, StepFeaturesActFromTheirTimeOn) {
+  // ds_after, ds_R_after, ds_L_after, dth_after: the drive's own terms from t >= t_c on.
+  HistoryMotionContext<D> h;
+  h.dt = 0.01;
+  const D rho = 0.006, th = 0.004, d = 0.5, tc = 0.03;
+  auto val = [&](FM m, D t_change) { return motionFeature(m, rho, th, h, d, 0.0, 0.0, t_change); };
+  for (int k = 0; k < 5; ++k) {  // t = 0, 0.01, ..., 0.04
+    const bool after = h.t >= tc;
+    EXPECT_EQ(val(FM::kDsAfter, tc).f, after ? rho : 0.0) << h.t;
+    EXPECT_EQ(val(FM::kDsRAfter, tc).f, after ? rho + th * d / 2 : 0.0) << h.t;
+    EXPECT_EQ(val(FM::kDsLAfter, tc).f, after ? rho - th * d / 2 : 0.0) << h.t;
+    EXPECT_EQ(val(FM::kDthAfter, tc).f, after ? th : 0.0) << h.t;
+    // without a configured time (the default, infinite) a step feature is 0
+    EXPECT_EQ(motionFeature(FM::kDsRAfter, rho, th, h, d, 0.0, 0.0).f, 0.0);
+    h.advanceHistory(rho, th, 0.01);
+  }
+  // after the step: the Jacobians are those of ds, ds_R, ds_L, dth (central differences)
+  for (const FM m : {FM::kDsAfter, FM::kDsRAfter, FM::kDsLAfter, FM::kDthAfter}) {
+    const FeatureValue<D> v = val(m, tc);
+    const D e = 1e-7;
+    auto at = [&](D dr, D dth) { return motionFeature(m, rho + dr, th + dth, h, d, 0.0, 0.0, tc).f; };
+    EXPECT_NEAR(v.d_rho, (at(e, 0) - at(-e, 0)) / (2 * e), 1e-6) << static_cast<int>(m);
+    EXPECT_NEAR(v.d_th, (at(0, e) - at(0, -e)) / (2 * e), 1e-6) << static_cast<int>(m);
+  }
+  // the effect passes its t_change on: a right wheel 3 % longer from t_c
+  MF fm;
+  ASSERT_TRUE(fm.configure(0, FM::kDsRAfter, MT::kWheelR, 0.1, 0.005));
+  fm.wheelbase = d;
+  fm.t_change = 0.5;
+  Eigen::Matrix<D, 3, 3> d_in;
+  Eigen::Matrix<D, 3, MF::kParams> d_p;
+  const D p[MF::kParams] = {0.03, 0, 0, 0};
+  const Increment<D> in{rho, th, 0};
+  EXPECT_EQ(fm.apply(in, p, h, d_in, d_p).rho, rho);  // t = 0.05 < 0.5: before the step
+  fm.t_change = 0.02;
+  const Increment<D> out = fm.apply(in, p, h, d_in, d_p);
+  const D right = rho + th * d / 2;  // the wheel R travels 3 % more: rho + dR/2, th + dR/d
+  EXPECT_NEAR(out.rho, rho + 0.5 * 0.03 * right, 1e-15);
+  EXPECT_NEAR(out.theta, th + 0.03 * right / d, 1e-15);
+}
+
 TEST(FeatureEffects, PriorsComeFromTheConfiguration) {
   MF e;
   ASSERT_TRUE(e.configure(1, FM::kDsRSpeed, MT::kWheelR, 0.2, 0.02));

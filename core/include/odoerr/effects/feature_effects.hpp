@@ -17,6 +17,8 @@
 // Neither effect is a member of the Catalogue: diagnose does not rank them.
 #pragma once
 
+#include <limits>
+
 #include <Eigen/Core>
 
 #include "odoerr/effects/features.hpp"
@@ -61,6 +63,8 @@ struct FeatureMotion : NominalZero<FeatureMotion<N>> {
   Slot slots[N]{};
   double wheelbase = 0.5;  ///< d of the ds_R/ds_L features and wheel targets (m; the drive's nominal)
   double xc = 0, yc = 0;   ///< map centre of x_ds, y_ds (m)
+  /// t_c of the step features (ds_after, ...: s since the log's start); infinite: none.
+  double t_change = std::numeric_limits<double>::infinity();
 
   /// Configures slot i; false (nothing changed) when i is out of range, an enum is out of
   /// range or a prior is negative or not finite.
@@ -79,7 +83,7 @@ struct FeatureMotion : NominalZero<FeatureMotion<N>> {
   /// Slot i's feature value in a cycle (what the host regresses on), for the increment in.
   template <typename S>
   FeatureValue<S> feature(int i, const Increment<S>& in, const HistoryMotionContext<S>& ctx) const {
-    return motionFeature(slots[i].feature, in.rho, in.theta, ctx, S(wheelbase), S(xc), S(yc));
+    return motionFeature(slots[i].feature, in.rho, in.theta, ctx, S(wheelbase), S(xc), S(yc), S(t_change));
   }
 
   template <typename S>
@@ -87,11 +91,11 @@ struct FeatureMotion : NominalZero<FeatureMotion<N>> {
                      Eigen::Matrix<S, 3, 3>& d_in, Eigen::Matrix<S, 3, kParams>& d_p) const {
     startJacobians(d_in, d_p);
     Increment<S> out = in;
-    const S d = S(wheelbase), x0 = S(xc), y0 = S(yc);
+    const S d = S(wheelbase), x0 = S(xc), y0 = S(yc), tc = S(t_change);
     for (int i = 0; i < N; ++i) {
       const Slot& sl = slots[i];
       if (sl.feature == MotionFeature::kNone) continue;
-      const FeatureValue<S> v = motionFeature(sl.feature, in.rho, in.theta, ctx, d, x0, y0);
+      const FeatureValue<S> v = motionFeature(sl.feature, in.rho, in.theta, ctx, d, x0, y0, tc);
       S dir[3];
       motionTargetDirection(sl.target, ctx, d, dir);
       const S cf = p[i] * v.f;

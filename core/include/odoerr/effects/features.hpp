@@ -15,6 +15,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <limits>
 #include <type_traits>
 
 #include "odoerr/map.hpp"
@@ -66,6 +67,13 @@ enum class MotionFeature : std::uint8_t {
   kDwDs,          ///< dw_ds = alpha |rho| (m rad/s^2): the turn rate's change
   kRevNearDs,     ///< rev_near_ds = exp(-s_rev / 0.25 m) |rho| (m): travel just after a reversal
   kTDs,           ///< t_ds = t |rho| (m s): the time since the start
+  // A step at a configured time t_c (the feature effect's t_change; a change point's time):
+  // the drive's own terms from t >= t_c on, 0 before (and 0 without a t_c). A drive
+  // parameter that changes abruptly (a tyre that loses pressure) is one of these.
+  kDsAfter,       ///< ds_after = [t >= t_c] rho (m)
+  kDsRAfter,      ///< ds_R_after = [t >= t_c] R (m)
+  kDsLAfter,      ///< ds_L_after = [t >= t_c] L (m)
+  kDthAfter,      ///< dth_after = [t >= t_c] th (rad)
   kCount
 };
 constexpr int kMotionFeatureCount = static_cast<int>(MotionFeature::kCount);
@@ -123,11 +131,13 @@ inline constexpr const char* kMotionFeatureNames[kMotionFeatureCount] = {
     "none",     "ds",         "abs_ds",     "dth",           "abs_dth",        "ds_R",     "ds_L",
     "ds_R_speed", "ds_L_speed", "v_w",      "v2",            "w2",             "cos_heading_ds", "sin_heading_ds",
     "x_ds",     "y_ds",       "s_ds",       "dt",            "acc_ds",         "acc_pos_ds", "acc_neg_ds",
-    "acc_R_ds", "acc_L_ds",   "jerk_ds",    "dw_ds",         "rev_near_ds",    "t_ds"};
+    "acc_R_ds", "acc_L_ds",   "jerk_ds",    "dw_ds",         "rev_near_ds",    "t_ds",
+    "ds_after", "ds_R_after", "ds_L_after", "dth_after"};
 inline constexpr const char* kMotionFeatureUnits[kMotionFeatureCount] = {
     "1",       "m",       "m",       "rad",     "rad",     "m",        "m",       "m^2/s", "m^2/s",
     "m*rad/s", "m^2/s",   "rad^2/s", "m",       "m",       "m^2",      "m^2",     "m^2",   "s",
-    "m^2/s^2", "m^2/s^2", "m^2/s^2", "m^2/s^2", "m^2/s^2", "m^2/s^3",  "m*rad/s^2", "m",   "m*s"};
+    "m^2/s^2", "m^2/s^2", "m^2/s^2", "m^2/s^2", "m^2/s^2", "m^2/s^3",  "m*rad/s^2", "m",   "m*s",
+    "m",       "m",       "m",       "rad"};
 inline constexpr const char* kMotionTargetNames[kMotionTargetCount] = {"along",   "cross",   "heading", "world_x",
                                                                 "world_y", "wheel_R", "wheel_L"};
 inline constexpr const char* kMotionTargetUnits[kMotionTargetCount] = {"m", "m", "rad", "m", "m", "m", "m"};
@@ -201,11 +211,17 @@ struct FeatureValue {
   S d_th = S(0);
 };
 
+/// Whether feature f is a step at a configured time (ds_after, ds_R_after, ds_L_after, dth_after).
+constexpr bool isStepFeature(MotionFeature f) {
+  return f == MotionFeature::kDsAfter || f == MotionFeature::kDsRAfter || f == MotionFeature::kDsLAfter ||
+         f == MotionFeature::kDthAfter;
+}
+
 /// Whether feature f reads the motion's history (HistoryMotionContext).
 constexpr bool isHistoryFeature(MotionFeature f) {
   return f == MotionFeature::kAccDs || f == MotionFeature::kAccPosDs || f == MotionFeature::kAccNegDs ||
          f == MotionFeature::kAccRDs || f == MotionFeature::kAccLDs || f == MotionFeature::kJerkDs ||
-         f == MotionFeature::kDwDs || f == MotionFeature::kTDs;
+         f == MotionFeature::kDwDs || f == MotionFeature::kTDs || isStepFeature(f);
 }
 
 /// A history feature (isHistoryFeature) of a cycle with increment (rho, th) after the
@@ -217,12 +233,25 @@ constexpr bool isHistoryFeature(MotionFeature f) {
 /// the opposite sign (the sum of a |rho| over cycles telescopes), but a filter that keeps no
 /// earlier increment in its state cannot see the cancellation: with it, the covariance took
 /// the encoders' noise 1/dt^2 times over and the model with the feature predicted worse.
+///
+/// The step features read h.t against t_change (infinite: no step configured, the feature 0).
 template <typename S>
-inline FeatureValue<S> historyFeature(MotionFeature f, S rho, S th, const HistoryMotionContext<S>& h, S d) {
+inline FeatureValue<S> historyFeature(MotionFeature f, S rho, S th, const HistoryMotionContext<S>& h, S d,
+                                      S t_change = std::numeric_limits<S>::infinity()) {
   using feature_detail::sgn;
   FeatureValue<S> v;
   const S a_rho = std::abs(rho), s_rho = sgn(rho);
   if (f == MotionFeature::kTDs) return {h.t * a_rho, h.t * s_rho, S(0)};
+  if (isStepFeature(f)) {
+    if (!(h.t >= t_change)) return v;
+    const S half_d = S(0.5) * d;
+    switch (f) {
+      case MotionFeature::kDsAfter: return {rho, S(1), S(0)};
+      case MotionFeature::kDsRAfter: return {rho + th * half_d, S(1), half_d};
+      case MotionFeature::kDsLAfter: return {rho - th * half_d, S(1), -half_d};
+      default: return {th, S(0), S(1)};  // kDthAfter
+    }
+  }
   if (!(h.dt > S(0)) || h.cycles < 1) return v;
   const S inv_dt = S(1) / h.dt, half_d = S(0.5) * d;
   const S a = (rho * inv_dt - h.v_prev) * inv_dt;
@@ -266,10 +295,12 @@ inline FeatureValue<S> historyFeature(MotionFeature f, S rho, S th, const Histor
 /// position, s_abs at the cycle's start); `wheelbase` is d, (xc, yc) the map centre. The
 /// history features need a HistoryMotionContext (in any other context they are 0).
 template <typename S, typename Ctx>
-inline FeatureValue<S> motionFeature(MotionFeature f, S rho, S th, const Ctx& ctx, S wheelbase, S xc, S yc) {
+inline FeatureValue<S> motionFeature(MotionFeature f, S rho, S th, const Ctx& ctx, S wheelbase, S xc, S yc,
+                                     S t_change = std::numeric_limits<S>::infinity()) {
   using feature_detail::sgn;
   if constexpr (std::is_base_of_v<HistoryMotionContext<S>, Ctx>) {
-    if (isHistoryFeature(f)) return historyFeature(f, rho, th, static_cast<const HistoryMotionContext<S>&>(ctx), wheelbase);
+    if (isHistoryFeature(f))
+      return historyFeature(f, rho, th, static_cast<const HistoryMotionContext<S>&>(ctx), wheelbase, t_change);
   }
   const S half_d = S(0.5) * wheelbase;
   const S inv_dt = ctx.dt > S(0) ? S(1) / ctx.dt : S(0);  // rate features vanish when dt is unknown
@@ -344,6 +375,10 @@ inline FeatureValue<S> motionFeature(MotionFeature f, S rho, S th, const Ctx& ct
     case MotionFeature::kJerkDs:
     case MotionFeature::kDwDs:
     case MotionFeature::kTDs:  // history features: above, or 0 without a history
+    case MotionFeature::kDsAfter:
+    case MotionFeature::kDsRAfter:
+    case MotionFeature::kDsLAfter:
+    case MotionFeature::kDthAfter:
     case MotionFeature::kNone:
     case MotionFeature::kCount:
       break;
