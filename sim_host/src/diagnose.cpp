@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 
 #include "diagnose/discovery.hpp"
 #include "diagnose/engine.hpp"
@@ -45,6 +46,11 @@ bool diagnoseDrive(const Odolog& log, const DiagnoseOptions& opt, json* out, std
     *error = "--with auto chooses the effects itself: give it alone";
     return false;
   }
+  for (const Term& t : with.features)
+    if (t.kind == Term::Kind::kMotion && effects::isStepFeature(t.mf) && !std::isfinite(opt.change_at_s)) {
+      *error = "--with: feature:" + t.name() + "@" + t.target() + " is a step at a time: give it with --change-at T";
+      return false;
+    }
   const std::vector<int>& with_idx = with.catalogue;
   const bool held_out = !with.catalogue.empty() || !with.features.empty();
 
@@ -176,6 +182,32 @@ bool diagnoseDrive(const Odolog& log, const DiagnoseOptions& opt, json* out, std
       }
     }
   }
+  // A named effect on a drive whose residuals show no structure (discovery finds no misfit)
+  // has only the likelihood for it: the held-out data must not contradict it.
+  json confirmations = json::array();
+  if (!(misfit > 0))
+    for (int e : rank.named()) {
+      json c = confirmHeldout(en, e, opt, exclude ? &map_misfit.in_region : nullptr);
+      if (!c["confirmed"].template get<bool>())
+        rank.unname(e, "discovery sees no structure in the residuals, and the held-out data contradict it (paired z " +
+                           fmt("%.1f", c["z"].template get<double>()) + " at best, " +
+                           fmt("%+.1f", c["worst_z"].template get<double>()) + " at worst)");
+      confirmations.push_back(std::move(c));
+    }
+  // The rival test: a named effect against the features of the other kind that discovery
+  // found in the baseline, on held-out data; the form of the right kind wins over a mimic.
+  json rivals = json::array();
+  for (int e : rank.named()) {
+    json r = rivalTest(en, e, res_base, opt, exclude ? &map_misfit.in_region : nullptr);
+    if (r.is_null()) continue;
+    if (r["won"].template get<bool>())
+      rank.unname(e, "the " + std::string(fx[e].kind == EffectKind::kMotion ? "beam" : "motion") +
+                         " features discovery found (" + r["rival"].template get<std::string>() +
+                         ") predict the held-out " + (r["decided_by"] == "nll" ? "beams" : "poses") + " better (paired z " +
+                         fmt("%.1f", r["z"].template get<double>()) +
+                         "): " + fx[e].name + " mimics a form of the other kind");
+    rivals.push_back(std::move(r));
+  }
   const std::vector<int> named = rank.named();
   Residuals res_final;
   if (named.size() == 1) {  // that effect's own run: already analysed
@@ -184,6 +216,26 @@ bool diagnoseDrive(const Odolog& log, const DiagnoseOptions& opt, json* out, std
     res_final = disc.analyse(residualRun(named), &scales);
   }
   const json unexplained = unexplainedJson(res_base, named.empty() ? res_base : res_final, !named.empty());
+  // The non-parametric step: on which state variables the motion misfit depends, in the
+  // model as it was and in what the named effects leave; each finding lists the library's
+  // forms in its variable that discovery selected (none: a form the library lacks).
+  auto dependenceOf = [&](const Residuals& r) {
+    json d = dependenceJson(r.state);
+    if (!d["found"].is_array()) return d;
+    for (json& f : d["found"]) {
+      json sel = json::array();
+      const std::vector<std::string> forms = f["library_forms"];
+      for (std::size_t k = 0; k < r.motion_sel.terms.size(); ++k) {
+        const Term& tm = r.motion_terms[static_cast<std::size_t>(r.motion_sel.terms[k])];
+        if (std::find(forms.begin(), forms.end(), tm.name()) != forms.end()) sel.push_back(tm.name() + "@" + tm.target());
+      }
+      f["selected_forms"] = sel;
+    }
+    return d;
+  };
+  json dependence = {{"baseline", dependenceOf(res_base)}, {"left", named.empty() ? json(nullptr) : dependenceOf(res_final)}};
+  const json& dep_now = named.empty() ? dependence["baseline"] : dependence["left"];
+  const bool dependence_found = dep_now["found"].is_array() && !dep_now["found"].empty();
   const json change_points = disc.changePoints(res_base, named.empty() ? nullptr : &res_final);
   json ranking = rank.toJson(joint);
   for (json& row : ranking)
@@ -227,7 +279,7 @@ bool diagnoseDrive(const Odolog& log, const DiagnoseOptions& opt, json* out, std
     }
   }
   const bool consistent = !rank.anySignificant() && st.consistent && !unexplained["significant"].template get<bool>() &&
-                          change_points.empty() && map_misfit.regions.empty();
+                          !dependence_found && change_points.empty() && map_misfit.regions.empty();
 
   // 6. Held-out comparison (--with): catalogue effects on the catalogue's model; with
   //    feature terms, on the model with the feature effects, their slots configured.
@@ -238,7 +290,10 @@ bool diagnoseDrive(const Odolog& log, const DiagnoseOptions& opt, json* out, std
     heldout = held.json;
   } else if (held_out) {
     using EnF = Engine<DriveT, Featured>;
-    EnF before(log, opt), after(log, opt, slotsFor(with.features, res_base));
+    EnF before(log, opt), after(log, opt,
+                                 slotsFor(with.features, res_base,
+                                          std::isfinite(opt.change_at_s) ? opt.change_at_s
+                                                                         : std::numeric_limits<double>::infinity()));
     if (!before.prepare(error) || !after.prepare(error)) return false;
     std::vector<int> added = with_idx;
     if (!after.slots().motion.empty()) added.push_back(ne);
@@ -250,7 +305,11 @@ bool diagnoseDrive(const Odolog& log, const DiagnoseOptions& opt, json* out, std
   json automatic = nullptr;
   if (with.automatic) {
     std::vector<std::string> final_with;
-    automatic = autoSearch(en, rank, res_base, scales, opt, &final_with, exclude ? &map_misfit.in_region : nullptr);
+    // the change point discovery found (the first), whose step is a candidate
+    double change_t = std::numeric_limits<double>::quiet_NaN();
+    if (!change_points.empty() && change_points[0]["t"].is_number()) change_t = change_points[0]["t"].template get<double>();
+    automatic = autoSearch(en, rank, res_base, scales, opt, &final_with, exclude ? &map_misfit.in_region : nullptr,
+                           change_t, dependence["baseline"]["found"]);
   }
   if (!opt.suggest_dir.empty()) {
     const Residuals& r = named.empty() || !unexplained["significant"].template get<bool>() ? res_base : res_final;
@@ -286,6 +345,9 @@ bool diagnoseDrive(const Odolog& log, const DiagnoseOptions& opt, json* out, std
   j["ranking"] = ranking;
   j["heldout"] = heldout;
   j["unexplained"] = unexplained;
+  j["rivals"] = rivals;
+  j["heldout_confirmations"] = confirmations;
+  j["dependence"] = dependence;
   j["change_points"] = change_points;
   j["map_misfit"] = mapMisfitJson(map_misfit, opt.out_dir.empty() ? "" : "map_grid.csv");
   j["map_misfit"]["region_beams"] =

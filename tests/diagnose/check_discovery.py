@@ -2,7 +2,8 @@
 """Residual discovery of `odoerr diagnose` on effects the catalogue cannot express.
 
   check_discovery.py ODOERR OUTDIR [--seeds 21,22] [--clean-seeds 21,...,30]
-                     [--pysim PATH] [--python PY] [--only NAME[,NAME...]] [--auto]
+                     [--pysim PATH] [--python PY] [--only NAME[,NAME...]|done-when] [--auto]
+                     [--reference] [--drive diff|sync] [--scale F] [--clean-accel A]
 
 Each out-of-catalogue case is a drive of the independent simulator (tools/pysim/odosim.py,
 ``--effect ooc_...`` at the test size of its docstring) that hides a physically plausible
@@ -26,6 +27,15 @@ effect NOT in the catalogue's form. For every case and seed the script runs
   * with --auto, a second run with `--with auto`: `auto.steps` is not empty and the last
     step's `paired.pose_err_m.change_z` (motion forms) or `paired.nll.change_z` (beam
     forms) is <= -2.
+
+`--only done-when` runs the four forms of issue 34's done-when set (ooc_accel_slip on a drive
+whose speed ramps at 2 m/s^2, ooc_reversal_drag, ooc_heading_scale, ooc_abrupt_scale); with
+--auto each case's summary line counts the seeds that meet that issue's rule alone (nothing
+of the wrong kind named, the last --with auto step's paired z <= -2). --reference also runs
+each case's reference detector (the model given the form, or its nearest feature terms:
+CASES[...]["reference"]) and counts the seeds whose held-out pose error it lowers with
+z <= -2. --scale multiplies each case's size (its "scaled" parameters): the power curves of
+docs/diagnostics.md. --drive sync runs the clean drives of the synchronous drive.
 
 Clean drives (no effect, --clean-seeds, default 21-30) are one case: a drive is FLAGGED
 when an effect is named, `unexplained.significant` is true, `change_points` is not empty,
@@ -62,12 +72,14 @@ CASES = {
     "ooc_world_drift": dict(values=[0.012, -0.008], kind="motion",
                             expect=[("world", None, {"abs_ds", "dt"})]),
     # carpet pile: rho *= 1 + k cos(theta - theta0)
-    "ooc_heading_scale": dict(values=[0.03, 0.5], kind="motion",
+    "ooc_heading_scale": dict(values=[0.03, 0.5], kind="motion", scaled=[0],
+                              reference=["--with", "feature:cos_heading_ds@along,sin_heading_ds@along"],
                               expect=[("robot", "along", HEADING_FEATURES),
                                       ("wheel_R", None, HEADING_FEATURES),
                                       ("wheel_L", None, HEADING_FEATURES)]),
     # a tyre loses pressure at t_c: R *= 1 + kR from then on
-    "ooc_abrupt_scale": dict(values=[120.0, -0.02], kind="motion", change_at=120.0,
+    "ooc_abrupt_scale": dict(values=[120.0, -0.02], kind="motion", change_at=120.0, scaled=[1],
+                             reference=["--with", "feature:ds_R_after@wheel_R", "--change-at", "120"],
                              expect=[("wheel_R", None, {"ds_R", "ds", "abs_ds", "t_ds", "s_ds"}),
                                      ("robot", "heading", {"ds_R", "t_ds", "s_ds"})]),
     # left wheel drag, quadratic in its speed: L *= 1 - k v_L^2
@@ -91,18 +103,44 @@ CASES = {
     # laser warming up: r += c t
     "ooc_range_time_drift": dict(values=[1e-4], kind="measurement",
                                  expect=[("beam", None, {"t"})]),
+    # wheels that spin speeding up and skid braking, above 1 m/s^2, on a drive whose speed
+    # ramps at 2 m/s^2
+    "ooc_accel_slip": dict(values=[0.2, 1.0], kind="motion", accel=2.0, scaled=[0],
+                           reference=["--with", "feature:acc_pos_ds@along,acc_neg_ds@along"],
+                           expect=[("robot", "along", {"acc_ds", "acc_pos_ds", "acc_neg_ds"}),
+                                   ("wheel_R", None, {"acc_R_ds"}),
+                                   ("wheel_L", None, {"acc_L_ds"})]),
+    # the left wheel drags for 0.3 m after each reversal: a loss per reversal, so the
+    # catalogue's backlash (robot or per wheel) is its nearest form
+    "ooc_reversal_drag": dict(values=[0.09, 0.3], kind="motion", scaled=[0],
+                              reference=["--with", "wheel_backlash"],
+                              near={"backlash", "wheel_backlash"},
+                              expect=[("wheel_L", None, {"rev_L", "acc_L_ds", "abs_ds"}),
+                                      ("robot", None, {"rev", "rev_near_ds"})]),
 }
+# The four forms of the issue's done-when set (acceleration slip, drag after reversals, a
+# heading-dependent scale, an abrupt wheel change): --only done-when runs them.
+DONE_WHEN = ["ooc_accel_slip", "ooc_reversal_drag", "ooc_heading_scale", "ooc_abrupt_scale"]
 CHANGE_TOL_S = 10.0
+reference_z = {}  # (case, seed) -> the reference detector's held-out pose z (--reference)
 AUTO_Z = -2.0
 CLEAN_FALSE_ALARM = 0.05
 
 
 
-def generate(args, log, seed, spec=None):
-    cmd = [args.python, args.pysim, "--drive", "diff", "--seed", str(seed), "--out", log]
+def generate(args, log, seed, spec=None, accel=None):
+    cmd = [args.python, args.pysim, "--drive", args.drive, "--seed", str(seed), "--out", log]
+    if accel is not None:
+        cmd += ["--accel", repr(accel)]
     if spec:
         cmd += ["--effect", spec]
     return run(cmd)
+
+
+def case_values(args, case):
+    """The case's parameters, its size-carrying ones (`scaled`, default all) times --scale."""
+    scaled = case.get("scaled", range(len(case["values"])))
+    return [v * args.scale if i in scaled else v for i, v in enumerate(case["values"])]
 
 
 def matches(f, expect):
@@ -118,11 +156,12 @@ def expect_text(expect):
 
 
 def check_auto(args, log, base, kind):
-    """(fails, info) of the --with auto run of an effect drive."""
-    fails, info = [], []
+    """(fails, info, z) of the --with auto run of an effect drive (z: the last step's paired
+    change_z, None without a step)."""
+    fails, info, z = [], [], None
     j, secs, err = diagnose(args, log, base + "_auto.json", ["--with", "auto"])
     if j is None:
-        return [err], "auto: -"
+        return [err], "auto: -", None
     key = "pose_err_m" if kind == "motion" else "nll"
     try:
         steps = need(j, "auto", "steps")
@@ -142,21 +181,24 @@ def check_auto(args, log, base, kind):
     except Missing as e:
         fails.append("diagnose --with auto JSON has no '%s'" % e)
     info.append("auto run %.1f s" % secs)
-    return fails, "; ".join(info)
+    return fails, "; ".join(info), z
 
 
 def check_case(args, name, seed):
-    """Returns (passed, line)."""
+    """Returns (passed, line, done_when): done_when (with --auto, else None) is the issue's
+    rule alone: nothing of the wrong kind named, and --with auto's last step lowers the
+    held-out error with paired z <= -2."""
     case = CASES[name]
     base = os.path.join(args.outdir, "%s_s%d" % (name, seed))
     log = base + ".odolog"
-    spec = "%s=%s" % (name, ",".join(repr(v) for v in case["values"]))
-    ok, gen_s, err = generate(args, log, seed, spec)
+    spec = "%s=%s" % (name, ",".join(repr(v) for v in case_values(args, case)))
+    ok, gen_s, err = generate(args, log, seed, spec, case.get("accel"))
     if not ok:
-        return False, "%s seed %d: FAIL: odosim failed: %s" % (name, seed, err)
+        return False, "%s seed %d: FAIL: odosim failed: %s" % (name, seed, err), False
     j, diag_s, err = diagnose(args, log, base + ".json")
     if j is None:
-        return False, "%s seed %d: FAIL: %s" % (name, seed, err)
+        return False, "%s seed %d: FAIL: %s" % (name, seed, err), False
+    wrong = None
 
     fails, info = [], []
     # 1. no catalogue effect of the wrong kind is named
@@ -174,38 +216,34 @@ def check_case(args, name, seed):
     try:
         sig = need(j, "unexplained", "significant")
         feats = need(j, "unexplained", "features")
-        base = need(j, "unexplained", "baseline_features")
+        base_feats = need(j, "unexplained", "baseline_features")
         frac = j["unexplained"].get("explained_fraction")
         info.append("unexplained %s (explained fraction %s): %s; in the model as it was: %s" % (
             sig, fmt(frac), "; ".join(feature_text(f) for f in feats[:4]) or "no feature",
-            "; ".join(feature_text(f) for f in base[:4]) or "no feature"))
+            "; ".join(feature_text(f) for f in base_feats[:4]) or "no feature"))
         # What discovery found in the model as the user had it (baseline_features), or
         # what is left once the named effects are in (features): one of them must name
         # the generator's form. An abrupt change is found as a change point instead.
         near = case.get("near")
-        near_named = near is not None and any(e == near for e, _ in named_rows(j))
-        if near_named and sig is not True and not base:
+        near = {near} if isinstance(near, str) else (near or set())
+        near_named = any(e in near for e, _ in named_rows(j))
+        if near_named and sig is not True and not base_feats:
             # A catalogue form slightly different from the truth (the cubic turn slip's
             # nearest is turn_slip), and a misfit concentrated where the feature library
             # cannot follow it (the fastest turns): the nearest catalogue form, of the
             # right kind, named is the honest outcome (docs/diagnostics.md, Limits).
-            info.append("the nearest catalogue form (%s) named; discovery saw no misfit beyond it" % near)
+            info.append("the nearest catalogue form (%s) named; discovery saw no misfit beyond it"
+                        % "/".join(sorted(near)))
         elif t_c_case is None:
-            if sig is not True and not base:
+            if sig is not True and not base_feats:
                 fails.append("discovery found no misfit (unexplained.significant %s, no baseline feature)" % sig)
-            if not any(isinstance(f, dict) and matches(f, case["expect"]) for f in list(feats) + list(base)):
+            if not any(isinstance(f, dict) and matches(f, case["expect"]) for f in list(feats) + list(base_feats)):
                 fails.append("no expected feature (%s)" % expect_text(case["expect"]))
     except Missing as e:
         fails.append("diagnose JSON has no '%s' (residual discovery not in this binary?)" % e)
     # 3. the abrupt change is found near its time
     t_c = case.get("change_at")
     if t_c is not None:
-        try:
-            regions = need(j, "map_misfit", "regions")
-            if regions:
-                why.append("%d map region(s)" % len(regions))
-        except Missing as e:
-            missing.append(str(e))
         try:
             cps = need(j, "change_points")
             hit = [c for c in cps if isinstance(c, dict) and (
@@ -218,15 +256,26 @@ def check_case(args, name, seed):
                 fails.append("no change point at t_c = %g s (+-%g s)" % (t_c, CHANGE_TOL_S))
         except Missing as e:
             fails.append("diagnose JSON has no '%s' (change points not in this binary?)" % e)
+    # 3b. the reference detector: the model given the form (or its nearest feature terms)
+    if args.reference and case.get("reference"):
+        r, _, err = diagnose(args, log, base + "_ref.json", case["reference"])
+        try:
+            zr = need(r, "heldout", "paired", "pose_err_m", "change_z") if r is not None else None
+        except Missing:
+            zr = None
+        info.append("reference %s: pose z %s" % (" ".join(case["reference"][1:]), fmt(zr, ".2f")))
+        reference_z[(name, seed)] = zr
     # 4. --with auto picks something that lowers the held-out error
+    done_when = None
     if args.auto:
-        f, text = check_auto(args, log, base, case["kind"])
+        f, text, z = check_auto(args, log, base, case["kind"])
         fails += f
         info.append(text)
+        done_when = wrong == [] and z is not None and z <= AUTO_Z
     status = "ok" if not fails else "FAIL: " + "; ".join(fails)
     line = "%s seed %d: %s | %s | odosim %.2f s, diagnose %.1f s (its own: %s s)" % (
         name, seed, status, "; ".join(info), gen_s, diag_s, fmt(j.get("seconds"), ".1f"))
-    return not fails, line
+    return not fails, line, done_when
 
 
 def check_clean(args, seeds):
@@ -235,7 +284,7 @@ def check_clean(args, seeds):
     for s in seeds:
         base = os.path.join(args.outdir, "clean_s%d" % s)
         log = base + ".odolog"
-        ok, gen_s, err = generate(args, log, s)
+        ok, gen_s, err = generate(args, log, s, accel=args.clean_accel)
         if not ok:
             broken.append(s)
             lines.append("  clean seed %d: FAIL: odosim failed: %s" % (s, err))
@@ -303,10 +352,20 @@ def main():
     common_args(ap, DEFAULT_PYSIM, CASES, "out-of-catalogue cases")
     ap.add_argument("--auto", action="store_true",
                     help="also run diagnose --with auto and check what it adds")
+    ap.add_argument("--reference", action="store_true",
+                    help="also run each case's reference detector (the model given the form) and count "
+                         "the seeds whose held-out pose error it lowers")
+    ap.add_argument("--drive", choices=["diff", "sync"], default="diff",
+                    help="the simulated drive (the per-wheel forms need diff)")
+    ap.add_argument("--scale", type=float, default=1.0,
+                    help="multiply each case's size (its `scaled` parameters) by this")
+    ap.add_argument("--clean-accel", type=float, default=None,
+                    help="the clean drives' speed ramp (m/s^2; odosim's default if not given)")
     args = ap.parse_args()
     names = list(CASES) + ["clean"]
     if args.only:
-        names = [n.strip() for n in args.only.split(",") if n.strip()]
+        names = [n.strip() for n in args.only.replace("done-when", ",".join(DONE_WHEN)).split(",")
+                 if n.strip()]
         unknown = [n for n in names if n not in CASES and n != "clean"]
         if unknown:
             ap.error("--only: unknown case(s) %s; known: %s, clean" % (unknown, ", ".join(CASES)))
@@ -326,11 +385,21 @@ def main():
             results.append({"case": "clean", "ok": ok, "lines": lines})
             passed, failed = passed + ok, failed + (not ok)
             continue
+        dw = []
         for s in seeds:
-            ok, line = check_case(args, name, s)
+            ok, line, done_when = check_case(args, name, s)
             print(line, flush=True)
-            results.append({"case": name, "seed": s, "ok": ok, "line": line})
+            results.append({"case": name, "seed": s, "ok": ok, "line": line, "done_when": done_when})
             passed, failed = passed + ok, failed + (not ok)
+            dw.append(done_when)
+        if args.auto:
+            print("%s: the issue's rule (nothing of the wrong kind named, --with auto z <= %g) on %d of %d "
+                  "seeds" % (name, AUTO_Z, sum(1 for d in dw if d), len(dw)), flush=True)
+        if args.reference and CASES[name].get("reference"):
+            zs = [reference_z.get((name, s)) for s in seeds]
+            print("%s: the reference detector (%s) lowers the held-out pose error with z <= %g on %d of %d "
+                  "seeds" % (name, " ".join(CASES[name]["reference"][1:]), AUTO_Z,
+                             sum(1 for z in zs if z is not None and z <= AUTO_Z), len(zs)), flush=True)
     with open(os.path.join(args.outdir, "summary_discovery.json"), "w") as f:
         json.dump({"passed": passed, "failed": failed, "results": results}, f, indent=1)
     print("%d passed, %d failed" % (passed, failed))

@@ -79,6 +79,26 @@ void printDiagnoseFindings(const nlohmann::ordered_json& r) {
     for (const auto& w : r["heldout"]["with"]) with += (with.empty() ? "" : ",") + w.get<std::string>();
     printHeldout(("with " + with).c_str(), r["heldout"]);
   }
+  // Effects the ranking found significant and then took back, and why.
+  if (r.contains("ranking") && r["ranking"].is_array())
+    for (const auto& row : r["ranking"])
+      if (row.contains("not_named_because"))
+        std::fprintf(stderr, "  not named: %s: %s\n", row["effect"].get<std::string>().c_str(),
+                     row["not_named_because"].get<std::string>().c_str());
+  // The non-parametric step: what the misfit depends on (in what the named effects leave).
+  if (r.contains("dependence") && r["dependence"].is_object()) {
+    const auto& d = r["dependence"]["left"].is_object() ? r["dependence"]["left"] : r["dependence"]["baseline"];
+    if (d.is_object() && d["found"].is_array())
+      for (const auto& f : d["found"]) {
+        std::string forms;
+        for (const auto& s : f["selected_forms"]) forms += (forms.empty() ? "" : ", ") + s.get<std::string>();
+        std::fprintf(stderr, "  the %s misfit depends on %s (%s): %.0f %% of it, p %.3f; %s\n",
+                     f["component"].get<std::string>().c_str(), f["variable"].get<std::string>().c_str(),
+                     f["variable_unit"].get<std::string>().c_str(), 100 * f["explained"].get<double>(),
+                     f["p_adjusted"].get<double>(),
+                     forms.empty() ? "no form of the library in it was selected" : ("selected: " + forms).c_str());
+      }
+  }
   if (r.contains("map_misfit") && r["map_misfit"].is_object() && r["map_misfit"]["regions"].is_array() &&
       !r["map_misfit"]["regions"].empty()) {
     const auto& regs = r["map_misfit"]["regions"];
@@ -151,6 +171,9 @@ int main(int argc, char** argv) {
                    "effects to add and compare on held-out data (comma separated): catalogue names, "
                    "feature:NAME@TARGET or feature:BEAM_FEATURE (the feature effects), or auto")
       ->delimiter(',');
+  diag->add_option("--change-at", dg.change_at_s,
+                   "the time t_c (s, the log's clock) of the step features in --with (feature:ds_R_after@wheel_R, "
+                   "ds_L_after, ds_after, dth_after): a change point's time");
   diag->add_option("--out", dg.out_dir, "also write scans.csv, beams.csv, trajectory.csv (and heldout_*.csv) here");
   std::string dg_map;
   diag->add_option("--map", dg_map, "the map to use instead of the log's walls (.odomap, or an odolog's walls)");

@@ -12,7 +12,7 @@ and numpy.
 Usage
 -----
     python3 tools/pysim/odosim.py --out FILE [--drive diff|sync] [--seed N]
-                                  [--minutes M] [--effect NAME=V1[,V2...]]...
+                                  [--minutes M] [--accel A] [--effect NAME=V1[,V2...]]...
                                   [--noisy-rates] [--map-error KIND=V1,...]...
     python3 tools/pysim/odosim.py --list-effects
     python3 tools/pysim/odosim.py --list-map-errors
@@ -235,6 +235,29 @@ Motion forms:
                                  at a = 0.64 m/s^2 (0.8 m/s on the 1 m lobe), 0.2 deg at
                                  0.25 m/s^2 (1.6 mm RMS cross, up to 19 mm).
                                  Shows in: robot cross, v_w (or w2, v2, dth).
+    ooc_accel_slip k,a0          while the motors' acceleration a (the commanded speed's change
+                                 per cycle over dt; the encoders follow it) exceeds a0 in
+                                 size, rho *= 1 - k (|a| - a0) when the robot speeds up
+                                 (a v > 0: the wheels spin, the robot travels less than they
+                                 turn) and rho *= 1 + k (|a| - a0) when it brakes (the wheels
+                                 skid, it travels further), in either direction of travel.
+                                 Acts after the catalogue's robot-level effects, before
+                                 ooc_turn_slip_cubic. Test size 0.2 s^2/m, 1.0 m/s^2 on a
+                                 drive with --accel 2 (speed ramps at 2 m/s^2: 20 % of the
+                                 travel of every ramp, 12 mm on a ramp from 0 to 0.5 m/s;
+                                 the default 0.6 m/s^2 ramp never reaches a0). At 0.05 the
+                                 drives were called consistent: the per-cycle noise of the
+                                 paper's model hides 3 mm per ramp.
+                                 Shows in: robot along, acc_pos_ds / acc_neg_ds (acc_ds).
+    ooc_reversal_drag c,span     (diff) L *= 1 - c while the robot's travel since its last
+                                 reversal (s_rev, this cycle's reversal included) is below
+                                 span m: one wheel drags just after the gear reverses (a
+                                 brake shoe that binds). Test size 0.09, 0.3 m (27 mm of
+                                 the left wheel, 54 mrad of heading, per reversal; at 0.03
+                                 nothing was found: docs/diagnostics.md has the power by
+                                 size).
+                                 Shows in: wheel_L or robot heading, a reversal term
+                                 (rev_near_ds, the per-wheel reversal loss).
 Measurement forms (the truth's motion, encoders and range noise are those of the clean
 drive with the same seed, so the ranges differ by the form alone; applied to the true range
 before range_bias and range_scale):
@@ -269,7 +292,7 @@ The reference path is a closed figure-eight with two lobes of different radii (1
 turning right, 1.0 m turning left) joined by two 3.2 m straights that cross between them
 (the internal tangents of the two circles). A seeded schedule alternates forward
 stretches (6-12 s, 0.2-0.8 m/s, sometimes a change of speed) with backward stretches
-(1.5-3.5 s, 0.2-0.5 m/s) along the same path, with acceleration limits, so there are
+(1.5-3.5 s, 0.2-0.5 m/s) along the same path, the speed ramped at 0.6 m/s^2 (--accel), so there are
 several reversals per minute and turns of both signs in both directions of travel. The
 path keeps more than 1.5 m from every wall and box.
 
@@ -383,10 +406,15 @@ EFFECTS = {
     "ooc_beam_angle_scale": (1, "measurement", "s (1): the true beam angle is alpha (1 + s) "
                              "(mirror speed error)"),
     "ooc_range_time_drift": (1, "measurement", "c (m/s): r += c t (laser warming up)"),
+    "ooc_accel_slip": (2, "motion", "k (s^2/m), a0 (m/s^2): rho *= 1 -+ k (|a| - a0) while "
+                       "|a| > a0, lost speeding up, gained braking (wheels spin and skid)"),
+    "ooc_reversal_drag": (2, "motion", "c (1), span (m): L *= 1 - c for the first span m "
+                          "after each reversal (one wheel drags after the gear reverses)"),
 }
 
 # Effects that act on the two wheels separately: the differential drive only.
-DIFF_ONLY = {"wheel_backlash", "wheel_speed_scale", "ooc_abrupt_scale", "ooc_one_wheel_drag"}
+DIFF_ONLY = {"wheel_backlash", "wheel_speed_scale", "ooc_abrupt_scale", "ooc_one_wheel_drag",
+             "ooc_reversal_drag"}
 
 # Suggested test sizes of the effects added for per-wheel and residual-discovery tests:
 # physically plausible and clearly visible on a 4-minute drive (see the docstring).
@@ -401,7 +429,11 @@ TEST_SIZES = {
     "ooc_incidence_bias": [0.015],
     "ooc_beam_angle_scale": [0.002],
     "ooc_range_time_drift": [1e-4],
+    "ooc_accel_slip": [0.2, 1.0],
+    "ooc_reversal_drag": [0.09, 0.3],
 }
+# Effects that need a drive with hard speed ramps (--accel): a test drive uses this ramp.
+TEST_ACCEL = {"ooc_accel_slip": 2.0}
 
 
 def parse_effects(specs, parser):
@@ -715,7 +747,7 @@ class SpanLoss:
 
 
 def simulate_motion(drive, n_steps, effects, path, rng_sched, rng_noise, rng_turn,
-                    noisy_rates=False, steer_feedback=True, record=None):
+                    noisy_rates=False, steer_feedback=True, record=None, accel=ACCEL):
     """Run the drive. Returns (enc counts (n+1, 2) int64, truth (n+1, 3) with theta
     unwrapped).
 
@@ -746,7 +778,10 @@ def simulate_motion(drive, n_steps, effects, path, rng_sched, rng_noise, rng_tur
     ab_tc, ab_kR = effects.get("ooc_abrupt_scale", [math.inf, 0.0])
     drag_k = effects.get("ooc_one_wheel_drag", [0.0])[0]
     cubic_k = effects.get("ooc_turn_slip_cubic", [0.0])[0]
-    wheel_effects = ("wheel_backlash" in effects or wss_R or wss_L or ab_kR or drag_k)
+    acc_k, acc_a0 = effects.get("ooc_accel_slip", [0.0, 0.0])
+    rdrag_c, rdrag_span = effects.get("ooc_reversal_drag", [0.0, 0.0])
+    wheel_effects = ("wheel_backlash" in effects or wss_R or wss_L or ab_kR or drag_k
+                     or rdrag_c)
     if drive != "diff" and wheel_effects:
         raise ValueError("per-wheel effects need the diff drive")
     rec_travel = np.zeros(n_steps)
@@ -792,7 +827,9 @@ def simulate_motion(drive, n_steps, effects, path, rng_sched, rng_noise, rng_tur
         while phase < len(schedule) - 1 and t >= sched_t[phase]:
             phase += 1
         target = schedule[phase][1]
-        v_cmd += max(-ACCEL * DT, min(ACCEL * DT, target - v_cmd))
+        v_prev = v_cmd
+        v_cmd += max(-accel * DT, min(accel * DT, target - v_cmd))
+        a_cmd = (v_cmd - v_prev) / DT       # the motors' acceleration this cycle
         rho_cmd = v_cmd * DT
         sgn = 1.0 if v_cmd >= 0.0 else -1.0
         u = max(-U_MAX, min(U_MAX, -K1 * e_y - sgn * K2 * e_th))
@@ -840,6 +877,13 @@ def simulate_motion(drive, n_steps, effects, path, rng_sched, rng_noise, rng_tur
                     gR *= 1.0 + ab_kR
                 if drag_k:
                     gL *= 1.0 - drag_k * (xL / DT) ** 2
+                if rdrag_c:
+                    # the robot's travel since its last reversal, this cycle a reversal
+                    # too (the statistics below are updated after the wheel effects)
+                    sg = (rho_d > 0.0) - (rho_d < 0.0)
+                    since = 0.0 if sg != 0 and last_sign != 0 and sg != last_sign else s_rev
+                    if since < rdrag_span:
+                        gL *= 1.0 - rdrag_c
                 mr, wr = mr * gR, wr * gR
                 ml, wl = ml * gL, wl * gL
             rho_m, dth_m = 0.5 * (mr + ml), (mr - ml) / base
@@ -901,6 +945,13 @@ def simulate_motion(drive, n_steps, effects, path, rng_sched, rng_noise, rng_tur
         # --- out-of-catalogue robot-level forms ---------------------------------------
         if hs_k:
             f = 1.0 + hs_k * math.cos(th - hs_th0)
+            rho *= f
+            rho_m *= f
+        if acc_k and abs(a_cmd) > acc_a0:
+            # speeding up (a v > 0) the wheels spin: the robot travels less than they
+            # turn; braking they skid: it travels further
+            spin = 1.0 if a_cmd * (v_cmd + v_prev) > 0.0 else -1.0
+            f = 1.0 - spin * acc_k * (abs(a_cmd) - acc_a0)
             rho *= f
             rho_m *= f
         if cubic_k:
@@ -1069,13 +1120,15 @@ def min_clearance(truth, map_errors=None):
 # ---------------------------------------------------------------------------
 
 def write_log(fname, drive, seed, minutes, effects, enc, truth, k_scan, ranges,
-              noisy_rates, map_errors=None):
+              noisy_rates, map_errors=None, accel=ACCEL):
     out = ["odolog 1",
            f"meta source odosim.py seed={seed}",
            f"meta drive_minutes {minutes!r}",
            "meta note figure-eight with reversals; 1 Hz steering correction on the truth",
-           "meta effect_rates " + ("noisy" if noisy_rates else "mean"),
-           f"drive {drive}"]
+           "meta effect_rates " + ("noisy" if noisy_rates else "mean")]
+    if accel != ACCEL:
+        out.append(f"meta speed_ramp_m_s2 {accel!r}")
+    out.append(f"drive {drive}")
     if drive == "diff":
         out += [f"param wheel_radius_m {WHEEL_RADIUS!r}",
                 f"param ticks_per_rev {TICKS_PER_REV}",
@@ -1128,6 +1181,9 @@ def main(argv=None):
     ap.add_argument("--minutes", type=float, default=4.0)
     ap.add_argument("--effect", action="append", default=[], metavar="NAME=V1[,V2...]",
                     help="inject an effect (repeatable); see --list-effects")
+    ap.add_argument("--accel", type=float, default=ACCEL, metavar="A",
+                    help="limit of the commanded speed's change, m/s^2 (default %(default)g; "
+                         "ooc_accel_slip's test drives use 2)")
     ap.add_argument("--noisy-rates", action="store_true",
                     help="evaluate the effects' v, w, |dtheta| and path statistics on the "
                          "noisy truth increment (literal reading) instead of the drive "
@@ -1168,6 +1224,8 @@ def main(argv=None):
         ap.error("--minutes must be positive")
     if args.seed < 0:
         ap.error("--seed must be >= 0")
+    if not (0.0 < args.accel <= 20.0):
+        ap.error("--accel must be in (0, 20] m/s^2")
     effects = parse_effects(args.effect, ap)
     if args.drive != "diff" and DIFF_ONLY & set(effects):
         ap.error("--effect " + ", ".join(sorted(DIFF_ONLY & set(effects)))
@@ -1180,11 +1238,12 @@ def main(argv=None):
     rng_sched, rng_noise, rng_turn, rng_scan = (
         np.random.default_rng([args.seed, i]) for i in range(4))
     enc, truth = simulate_motion(args.drive, n_steps, effects, path,
-                                 rng_sched, rng_noise, rng_turn, args.noisy_rates)
+                                 rng_sched, rng_noise, rng_turn, args.noisy_rates,
+                                 accel=args.accel)
     seen = []
     k_scan, ranges = simulate_scans(truth, n_steps, effects, rng_scan, map_errors, seen)
     write_log(args.out, args.drive, args.seed, args.minutes, effects, enc, truth,
-              k_scan, ranges, args.noisy_rates, map_errors)
+              k_scan, ranges, args.noisy_rates, map_errors, args.accel)
     for kind, vals, beams, scans in seen:
         print(f"odosim: map error {kind}=" + ",".join(f"{v:g}" for v in vals)
               + f": met by {beams} beams in {scans} scans", file=sys.stderr)

@@ -357,8 +357,12 @@ Residuals Discovery<En>::analyse(const RunOut& run, Scales* scales) const {
   struct Seg {
     double t, tm;
     Eigen::Vector3d r;
-    Eigen::MatrixXd a;  // 3 x terms
+    Eigen::MatrixXd a;      // 3 x terms
+    Eigen::VectorXd state;  // the segment's state (dependence.hpp); empty: none
+    Eigen::Vector3d per_m;  // r per metre in the robot frame
+    double travel;
   };
+  SegmentState seg_state;
   std::vector<Seg> segs;
   // The model's context, with the motion's history for the history features whether or not
   // the model reads it (a HistoryMotionContext is every model's Context or derives from it).
@@ -390,6 +394,7 @@ Residuals Discovery<En>::analyse(const RunOut& run, Scales* scales) const {
         const int sg = wheel_travel[w] > 0 ? 1 : (wheel_travel[w] < 0 ? -1 : 0);
         if (sg != 0 && last_sign[w] != 0 && sg != last_sign[w]) rev[w] = sg;
       }
+      seg_state.cycle(e.dt, dinc.rho, dinc.theta, wheel_travel[1], wheel_travel[2], pp.x, pp.y, pp.theta);
       for (int j = 0; j < nt; ++j) {
         const Term& tm = terms[static_cast<std::size_t>(j)];
         double f;
@@ -431,8 +436,12 @@ Residuals Discovery<En>::analyse(const RunOut& run, Scales* scales) const {
           sg.a(0, j) += -(th_acc(0, j) * pp.y - thp_acc(1, j));
           sg.a(1, j) += th_acc(0, j) * pp.x - thp_acc(0, j);
         }
+        if (!seg_state.row(!kSync, &sg.state)) sg.state.resize(0);
+        sg.per_m = seg_state.perMetre(sg.r);
+        sg.travel = seg_state.travel();
         if (sg.r.template head<2>().norm() < kMaxSegmentM) segs.push_back(sg);
       }
+      seg_state.open(q.t - t0, ctx.s_abs, ctx.s_rev);
       pp = Pose<S>{q.x, q.y, q.th};  // the measurement's own pose: no filter lag
       seg_start = q.t;
       acc.setZero();
@@ -469,6 +478,23 @@ Residuals Discovery<En>::analyse(const RunOut& run, Scales* scales) const {
       dm.fold.push_back(block % dm.folds);
       dm.cluster.push_back(cl);
     }
+  }
+  // The same segments for the non-parametric step (dependence.hpp): travel below 5 cm
+  // says nothing per metre.
+  StateTable& st = out.state;
+  stateVariables(!kSync, &st.names, &st.units);
+  st.folds = dm.folds;
+  const auto nsv = static_cast<Eigen::Index>(st.names.size());
+  st.state = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(segs.size()), nsv);
+  st.response = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(segs.size()), 3);
+  st.weight = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(segs.size()));
+  for (std::size_t i = 0; i < segs.size(); ++i) {
+    const auto k = static_cast<Eigen::Index>(i);
+    st.fold.push_back(static_cast<int>((segs[i].tm - t0) / kCvBlockS) % dm.folds);
+    if (segs[i].state.size() != nsv || segs[i].travel < 0.05) continue;
+    st.state.row(k) = segs[i].state.transpose();
+    st.response.row(k) = segs[i].per_m.transpose();
+    st.weight[k] = segs[i].travel;
   }
   out.segments = static_cast<int>(segs.size());
   out.seg_s = segs.size() > 1 ? (segs.back().t - segs.front().t) / double(segs.size() - 1) : 0.0;

@@ -23,6 +23,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "dependence.hpp"
 #include "engine.hpp"
 #include "odoerr/effects/features.hpp"
 #include "regression.hpp"
@@ -55,6 +56,7 @@ struct Residuals {
   Design motion, beam;
   std::vector<Term> motion_terms, beam_terms;  ///< a term per design column
   Selection motion_sel, beam_sel;
+  StateTable state;  ///< the motion segments' states and residuals per metre (dependence.hpp)
   int segments = 0;
   long beams = 0;
   double seg_s = 0;  ///< mean segment length (s)

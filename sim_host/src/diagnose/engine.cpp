@@ -81,6 +81,8 @@ auto Engine<DriveT, Effects>::makeModel() const -> M {
     if constexpr (!kSync) fm.wheelbase = drive_.wheelbase;
     fm.xc = 0.5 * (reg.x_min + reg.x_max);
     fm.yc = 0.5 * (reg.y_min + reg.y_max);
+    // the filter's history counts time from the first event; a change point is in log time
+    fm.t_change = slots_.t_change - (events_.empty() ? 0.0 : events_.front().t);
     for (std::size_t i = 0; i < slots_.motion.size() && i < FeatureSlots::kMax; ++i) {
       const auto& q = slots_.motion[i];
       (void)fm.configure(static_cast<int>(i), q.f, q.t, q.prior, q.ref);

@@ -16,9 +16,9 @@ constexpr double kLostS = 10.0;  // a fit that fused scans with under a quarter 
 }  // namespace
 
 template <typename En>
-HeldoutResult compareHeldout(const En& en, const std::vector<int>& before_idx, const En& en_after,
-                             const std::vector<int>& with_idx, const std::vector<std::string>& names,
-                             const DiagnoseOptions& opt, const std::vector<std::uint8_t>* leave_out) {
+HeldoutResult compareModels(const En& en, const std::vector<int>& before_idx, const En& en_after,
+                            const std::vector<int>& after_idx, const std::vector<std::string>& names,
+                            const DiagnoseOptions& opt, const std::vector<std::uint8_t>* leave_out) {
   using RunSpec = typename En::RunSpec;
   using RunOut = typename En::RunOut;
   using Drive = typename En::Drive;
@@ -53,8 +53,9 @@ HeldoutResult compareHeldout(const En& en, const std::vector<int>& before_idx, c
     }
     return fit;
   };
-  std::vector<int> after_idx = before_idx;
-  after_idx.insert(after_idx.end(), with_idx.begin(), with_idx.end());
+  std::vector<int> with_idx;  // the after model's effects the before model lacks: their estimates are reported
+  for (int e : after_idx)
+    if (std::find(before_idx.begin(), before_idx.end(), e) == before_idx.end()) with_idx.push_back(e);
   for (int f = 0; f < folds; ++f) {
     tasks.push_back([&, f] {
       fit_before_spec[f] = fitSpec(en, before_idx, f);
@@ -253,9 +254,9 @@ bool writeHeldoutCsv(const std::string& dir, const HeldoutResult& r, std::string
 }
 
 #define ODOERR_HELDOUT(EN) \
-  template HeldoutResult compareHeldout<EN>(const EN&, const std::vector<int>&, const EN&, const std::vector<int>&, \
-                                            const std::vector<std::string>&, const DiagnoseOptions&, \
-                                            const std::vector<std::uint8_t>*);
+  template HeldoutResult compareModels<EN>(const EN&, const std::vector<int>&, const EN&, const std::vector<int>&, \
+                                           const std::vector<std::string>&, const DiagnoseOptions&, \
+                                           const std::vector<std::uint8_t>*);
 using SyncEngine = Engine<SyncDrive>;
 using DiffEngine = Engine<DiffDrive>;
 using SyncFeatured = Engine<SyncDrive, Featured>;

@@ -20,15 +20,27 @@ struct HeldoutResult {
 };
 
 /// Compares the model with the effects `before` (indices of the engine's effects) against
-/// the model with `added` too, on held-out data. The two sides may run on different
-/// engines of one type (the same effects, other feature slots: `--with feature:...`).
-/// `names` is what the JSON lists under "with". `leave_out` (may be null): beams by key
+/// the model with the effects `after`, on held-out data. The two sides may run on different
+/// engines of one type (the same effects, other feature slots: `--with feature:...`); the
+/// models need not be nested (a catalogue effect against discovered features: the rival
+/// test). `names` is what the JSON lists under "with"; its fold estimates are those of the
+/// effects in `after` and not in `before`. `leave_out` (may be null): beams by key
 /// (scan * beams + beam, as RunSpec::scored) that neither side scores, the beams ending in
 /// a region the map gets wrong.
 template <typename En>
+HeldoutResult compareModels(const En& before_en, const std::vector<int>& before, const En& after_en,
+                            const std::vector<int>& after, const std::vector<std::string>& names,
+                            const DiagnoseOptions& opt, const std::vector<std::uint8_t>* leave_out);
+
+/// The nested comparison: the model with `before` against the same with `added` too.
+template <typename En>
 HeldoutResult compareHeldout(const En& before_en, const std::vector<int>& before, const En& after_en,
                              const std::vector<int>& added, const std::vector<std::string>& names,
-                             const DiagnoseOptions& opt, const std::vector<std::uint8_t>* leave_out);
+                             const DiagnoseOptions& opt, const std::vector<std::uint8_t>* leave_out) {
+  std::vector<int> after = before;
+  after.insert(after.end(), added.begin(), added.end());
+  return compareModels(before_en, before, after_en, after, names, opt, leave_out);
+}
 
 /// The same on one engine.
 template <typename En>

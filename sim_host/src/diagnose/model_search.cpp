@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include "dependence.hpp"
 #include "heldout.hpp"
 
 namespace odoerr::sim::diag {
@@ -41,6 +42,19 @@ Score scoreOf(const json& held) {
   s.worst = *std::max_element(zs.begin(), zs.end());
   s.ok = s.z <= kAcceptZ && s.worst < kWorseZ;
   return s;
+}
+
+/// The selection of a residual design over the terms a feature effect carries: the
+/// design's own when it holds no host-only term (a reversal count, the time), else the
+/// forward selection again with those columns zeroed.
+Selection carriedSelection(const Design& d, const Selection& sel, const std::vector<Term>& terms) {
+  if (std::none_of(sel.terms.begin(), sel.terms.end(),
+                   [&](int j) { return withToken(terms[static_cast<std::size_t>(j)]).empty(); }))
+    return sel;
+  Design c = d;
+  for (std::size_t j = static_cast<std::size_t>(c.n_nuisance); j < terms.size(); ++j)
+    if (withToken(terms[j]).empty()) c.x.col(static_cast<Eigen::Index>(j)).setZero();
+  return forwardSelect(c, SelectOptions{});
 }
 
 }  // namespace
@@ -110,9 +124,14 @@ bool parseWith(const std::vector<std::string>& tokens, const std::vector<EffectI
   return true;
 }
 
-FeatureSlots slotsFor(const std::vector<Term>& terms, const Residuals& base) {
+FeatureSlots slotsFor(const std::vector<Term>& terms, const Residuals& base, double t_change) {
   FeatureSlots s;
+  s.t_change = t_change;
   for (const Term& t : terms) {
+    if (t.kind == Term::Kind::kMotion && effects::isStepFeature(t.mf)) {
+      s.motion.push_back({t.mf, t.mt, 0.1, 0.005});
+      continue;
+    }
     const bool beam = t.kind == Term::Kind::kBeam;
     const std::vector<Term>& cols = beam ? base.beam_terms : base.motion_terms;
     const Design& d = beam ? base.beam : base.motion;
@@ -141,8 +160,9 @@ FeatureSlots slotsFor(const std::vector<Term>& terms, const Residuals& base) {
 template <template <typename> class DriveT>
 json autoSearch(const Engine<DriveT>& en, const Ranking<DriveT>& rank, const Residuals& base, const Scales& scales,
                 const DiagnoseOptions& opt, std::vector<std::string>* final_with,
-                const std::vector<std::uint8_t>* leave_out) {
+                const std::vector<std::uint8_t>* leave_out, double change_t, const json& dependence) {
   using EnF = Engine<DriveT, Featured>;
+  const double tc = std::isfinite(change_t) ? change_t : std::numeric_limits<double>::infinity();
   using RunSpecF = typename EnF::RunSpec;
   const auto& fx = en.effects();
   const int ne = static_cast<int>(fx.size());  // the feature effects follow the catalogue
@@ -183,14 +203,68 @@ json autoSearch(const Engine<DriveT>& en, const Ranking<DriveT>& rank, const Res
           c.name += (c.name.empty() ? "" : ",") + withToken(t);
         }
       };
-      take(res.motion_sel, res.motion_terms);
-      take(res.beam_sel, res.beam_terms);
+      take(carriedSelection(res.motion, res.motion_sel, res.motion_terms), res.motion_terms);
+      take(carriedSelection(res.beam, res.beam_sel, res.beam_terms), res.beam_terms);
       std::size_t nm = 0, nb = 0;
       for (const Term& t : c.terms) (t.kind == Term::Kind::kBeam ? nb : nm)++;
       if (!c.name.empty() && nm <= FeatureSlots::kMax && nb <= FeatureSlots::kMax) cands.push_back(c);
     }
+    // The forms the non-parametric step proposes in the variables the misfit depends on (its
+    // two strongest findings): their feature terms together, and each catalogue effect.
+    if (dependence.is_array())
+      for (std::size_t k = 0; k < dependence.size() && k < 2; ++k) {
+        const ProposedForms pf = proposedForms(dependence[k]["variable"].get<std::string>(),
+                                               dependence[k]["component"].get<std::string>());
+        Cand c{"", cur_cat, cur_terms};
+        for (const std::string& tok : pf.features) {
+          const std::size_t at = tok.find('@');
+          Term t{Term::Kind::kMotion};
+          if (!effects::parseMotionFeature(tok.substr(0, at).c_str(), &t.mf) ||
+              !effects::parseMotionTarget(tok.substr(at + 1).c_str(), &t.mt))
+            continue;
+          if (Engine<DriveT>::kSync && (t.mt == MotionTarget::kWheelR || t.mt == MotionTarget::kWheelL)) continue;
+          if (std::any_of(c.terms.begin(), c.terms.end(), [&](const Term& q) { return sameTerm(q, t); })) continue;
+          c.terms.push_back(t);
+          c.name += (c.name.empty() ? "" : ",") + withToken(t);
+        }
+        std::size_t nm = 0;
+        for (const Term& t : c.terms) nm += t.kind == Term::Kind::kMotion;
+        auto known = [&](const std::string& n) {
+          return std::any_of(cands.begin(), cands.end(), [&](const Cand& q) { return q.name == n; });
+        };
+        if (!c.name.empty() && nm <= FeatureSlots::kMax && !known(c.name)) cands.push_back(c);
+        for (const std::string& name : pf.catalogue)
+          for (int e = 0; e < static_cast<int>(fx.size()); ++e)
+            if (fx[e].name == name && std::find(cur_cat.begin(), cur_cat.end(), e) == cur_cat.end() && !known(name)) {
+              Cand q{name, cur_cat, cur_terms};
+              q.cat.push_back(e);
+              cands.push_back(q);
+            }
+      }
+    if (std::isfinite(tc)) {  // the drive parameters' step at the change point
+      Cand c{"", cur_cat, cur_terms};
+      std::vector<Term> jump;
+      if constexpr (Engine<DriveT>::kSync) {
+        jump = {{Term::Kind::kMotion, MotionFeature::kDsAfter, MotionTarget::kAlong},
+                {Term::Kind::kMotion, MotionFeature::kDsAfter, MotionTarget::kHeading}};
+      } else {
+        jump = {{Term::Kind::kMotion, MotionFeature::kDsRAfter, MotionTarget::kWheelR},
+                {Term::Kind::kMotion, MotionFeature::kDsLAfter, MotionTarget::kWheelL}};
+      }
+      for (const Term& t : jump)
+        if (std::none_of(c.terms.begin(), c.terms.end(), [&](const Term& q) { return sameTerm(q, t); })) {
+          c.terms.push_back(t);
+          c.name += (c.name.empty() ? "" : ",") + withToken(t);
+        }
+      std::size_t nm = 0;
+      for (const Term& t : c.terms) nm += t.kind == Term::Kind::kMotion;
+      if (!c.name.empty() && nm <= FeatureSlots::kMax) {
+        c.name += " (step at t = " + fmt("%.1f", tc) + " s)";
+        cands.push_back(c);
+      }
+    }
     if (cands.empty()) break;
-    const FeatureSlots cur_slots = slotsFor(cur_terms, base);
+    const FeatureSlots cur_slots = slotsFor(cur_terms, base, tc);
     EnF before(log, opt, cur_slots);
     std::string err;
     if (!before.prepare(&err)) break;
@@ -198,7 +272,7 @@ json autoSearch(const Engine<DriveT>& en, const Ranking<DriveT>& rank, const Res
     Score best_s;
     json best_held;
     for (std::size_t c = 0; c < cands.size(); ++c) {
-      const FeatureSlots sl = slotsFor(cands[c].terms, base);
+      const FeatureSlots sl = slotsFor(cands[c].terms, base, tc);
       EnF after(log, opt, sl);
       if (!after.prepare(&err)) continue;
       const std::vector<int> b_idx = indices(cur_cat, cur_slots);
@@ -221,7 +295,7 @@ json autoSearch(const Engine<DriveT>& en, const Ranking<DriveT>& rank, const Res
     cur_terms = cands[static_cast<std::size_t>(best)].terms;
     cur_names.push_back(cands[static_cast<std::size_t>(best)].name);
     // The model as it now is: fitted on the whole drive, then its residuals.
-    const FeatureSlots sl = slotsFor(cur_terms, base);
+    const FeatureSlots sl = slotsFor(cur_terms, base, tc);
     EnF now(log, opt, sl);
     if (!now.prepare(&err)) break;
     RunSpecF fit = now.nominalSpec(now.initialK(), true);
@@ -272,6 +346,65 @@ json autoSearch(const Engine<DriveT>& en, const Ranking<DriveT>& rank, const Res
           {"rule", "a step is kept when its held-out NLL or pose error falls with paired z <= -2 and neither rises "
                    "with z >= +2; candidates: the best named catalogue effect, and the features the residuals "
                    "still depend on"}};
+}
+
+template <template <typename> class DriveT>
+json confirmHeldout(const Engine<DriveT>& en, int e, const DiagnoseOptions& opt,
+                    const std::vector<std::uint8_t>* leave_out) {
+  const std::string name = en.effects()[static_cast<std::size_t>(e)].name;
+  const HeldoutResult h = compareHeldout(en, {}, {e}, {name}, opt, leave_out);
+  const Score s = scoreOf(h.json);
+  // Not contradicted: some held-out error falls (z < 0) and none rises with z >= +2. A weak
+  // true effect may not reach z <= -2 on held-out data, and the likelihood named it; an
+  // effect that improves nothing held out, or makes one error clearly worse, is not named.
+  const bool kept = s.z < 0 && s.worst < kWorseZ;
+  return {{"effect", name}, {"paired", h.json["paired"]}, {"z", s.z}, {"worst_z", s.worst}, {"confirmed", kept}};
+}
+
+template <template <typename> class DriveT>
+json rivalTest(const Engine<DriveT>& en, int e, const Residuals& base, const DiagnoseOptions& opt,
+               const std::vector<std::uint8_t>* leave_out) {
+  using EnF = Engine<DriveT, Featured>;
+  const auto& fx = en.effects();
+  const int ne = static_cast<int>(fx.size());
+  const EffectKind kind = fx[static_cast<std::size_t>(e)].kind;
+  if (kind == EffectKind::kNoise) return nullptr;
+  // The features of the other kind: beam terms rival a motion effect, motion terms a
+  // measurement effect (a host-only term, which no feature effect carries, is left out).
+  const bool want_beam = kind == EffectKind::kMotion;
+  const std::vector<Term>& terms = want_beam ? base.beam_terms : base.motion_terms;
+  const Selection sel = carriedSelection(want_beam ? base.beam : base.motion,
+                                         want_beam ? base.beam_sel : base.motion_sel, terms);
+  std::vector<Term> rival;
+  std::string name;
+  for (int j : sel.terms) {
+    const Term& t = terms[static_cast<std::size_t>(j)];
+    if (withToken(t).empty() || rival.size() >= FeatureSlots::kMax) continue;
+    rival.push_back(t);
+    name += (name.empty() ? "" : ",") + withToken(t);
+  }
+  if (rival.empty()) return nullptr;
+  const FeatureSlots sl = slotsFor(rival, base);
+  EnF cat(en.log(), opt), feat(en.log(), opt, sl);
+  std::string err;
+  if (!cat.prepare(&err) || !feat.prepare(&err)) return nullptr;
+  const HeldoutResult h =
+      compareModels(cat, {e}, feat, {want_beam ? ne + 1 : ne}, {fx[static_cast<std::size_t>(e)].name + " vs " + name}, opt,
+                    leave_out);
+  // A mimic fits the beams about as well as the true form (that is what makes it one), so the
+  // beams' NLL may not decide the kind; where the log has truth, the held-out pose error
+  // does: the form of the right kind moves the robot where it went.
+  const json& p = h.json["paired"];
+  const bool truth = p["pose_err_m"]["change_z"].is_number();
+  const char* by = truth ? "pose_err_m" : "nll";
+  const json& zj = p[by]["change_z"];
+  const double z = zj.is_number() ? zj.get<double>() : 0.0;
+  return {{"effect", fx[static_cast<std::size_t>(e)].name},
+          {"rival", name},
+          {"paired", p},
+          {"decided_by", by},
+          {"z", z},
+          {"won", zj.is_number() && z <= kAcceptZ}};
 }
 
 bool writeSuggestion(const std::string& dir, const std::vector<Term>& terms, const std::vector<double>& coef,
@@ -361,9 +494,17 @@ bool writeSuggestion(const std::string& dir, const std::vector<Term>& terms, con
 
 template json autoSearch<SyncDrive>(const Engine<SyncDrive>&, const Ranking<SyncDrive>&, const Residuals&, const Scales&,
                                     const DiagnoseOptions&, std::vector<std::string>*,
-                                    const std::vector<std::uint8_t>*);
+                                    const std::vector<std::uint8_t>*, double, const json&);
 template json autoSearch<DiffDrive>(const Engine<DiffDrive>&, const Ranking<DiffDrive>&, const Residuals&, const Scales&,
                                     const DiagnoseOptions&, std::vector<std::string>*,
-                                    const std::vector<std::uint8_t>*);
+                                    const std::vector<std::uint8_t>*, double, const json&);
+template json confirmHeldout<SyncDrive>(const Engine<SyncDrive>&, int, const DiagnoseOptions&,
+                                       const std::vector<std::uint8_t>*);
+template json confirmHeldout<DiffDrive>(const Engine<DiffDrive>&, int, const DiagnoseOptions&,
+                                       const std::vector<std::uint8_t>*);
+template json rivalTest<SyncDrive>(const Engine<SyncDrive>&, int, const Residuals&, const DiagnoseOptions&,
+                                   const std::vector<std::uint8_t>*);
+template json rivalTest<DiffDrive>(const Engine<DiffDrive>&, int, const Residuals&, const DiagnoseOptions&,
+                                   const std::vector<std::uint8_t>*);
 
 }  // namespace odoerr::sim::diag

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstddef>
+#include <limits>
 #include <string>
 #include <tuple>
 #include <vector>
@@ -34,6 +35,7 @@ struct FeatureSlots {
   };
   std::vector<Motion> motion;
   std::vector<Beam> beam;
+  double t_change = std::numeric_limits<double>::infinity();  ///< t_c of the step features (log time, s)
   static constexpr std::size_t kMax = 4;
   bool empty() const { return motion.empty() && beam.empty(); }
 };

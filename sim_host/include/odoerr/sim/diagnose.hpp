@@ -9,6 +9,7 @@
 // `threads` worker threads.
 #pragma once
 
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -25,6 +26,7 @@ struct DiagnoseOptions {
   std::vector<std::string> with;  ///< effects to add for the held-out comparison (catalogue names,
                                   ///< feature:NAME@TARGET, feature:BEAM_FEATURE, or auto)
   std::string suggest_dir;        ///< write a C++ effect skeleton of the discovered features here ("" = none)
+  double change_at_s = std::numeric_limits<double>::quiet_NaN();  ///< t_c of the step features in --with (log time, s; NaN: none)
   double map_cell_m = 0.25;       ///< cell of the grid of residuals at the beams' hit points (m)
   bool map_exclude = true;        ///< beams ending in a region the map gets wrong leave the ranking
   double map_index_cell_m = -1;   ///< grid cell of the map's ray-cast index (m; < 0 chosen, 0 none)
