@@ -74,6 +74,8 @@ void printDiagnoseFindings(const nlohmann::ordered_json& r) {
       printHeldout(what.c_str(), h);
     }
     if (r["auto"]["steps"].empty()) std::fprintf(stderr, "  --with auto: no step lowered the held-out error\n");
+    if (r["auto"]["steps"].size() > 1 && r["auto"]["overall"].is_object())
+      printHeldout("overall, against the model as it was", r["auto"]["overall"]);
   } else if (r.contains("heldout") && r["heldout"].is_object()) {
     std::string with;
     for (const auto& w : r["heldout"]["with"]) with += (with.empty() ? "" : ",") + w.get<std::string>();

@@ -340,12 +340,28 @@ json autoSearch(const Engine<DriveT>& en, const Ranking<DriveT>& rank, const Res
                      {"left", left["features"]}});
   }
   *final_with = cur_names;
+  // The final model against the model as it was: one step's comparison is already that;
+  // after several, one more.
+  json overall = nullptr;
+  if (steps.size() == 1) {
+    overall = {{"before", steps[0]["heldout"]["before"]}, {"after", steps[0]["heldout"]["after"]},
+               {"paired", steps[0]["paired"]}};
+  } else if (steps.size() > 1) {
+    const FeatureSlots sl = slotsFor(cur_terms, base, tc);
+    EnF as_was(log, opt), fin(log, opt, sl);
+    std::string err;
+    if (as_was.prepare(&err) && fin.prepare(&err)) {
+      const HeldoutResult h = compareModels(as_was, {}, fin, indices(cur_cat, sl), cur_names, opt, leave_out);
+      overall = {{"before", h.json["before"]}, {"after", h.json["after"]}, {"paired", h.json["paired"]}};
+    }
+  }
   return {{"steps", steps},
           {"final_with", cur_names},
+          {"overall", overall},
           {"tried", tried},
           {"rule", "a step is kept when its held-out NLL or pose error falls with paired z <= -2 and neither rises "
-                   "with z >= +2; candidates: the best named catalogue effect, and the features the residuals "
-                   "still depend on"}};
+                   "with z >= +2; candidates: the best named catalogue effect, the features the residuals "
+                   "still depend on, the forms the dependence findings propose, the step at a change point"}};
 }
 
 template <template <typename> class DriveT>
