@@ -41,8 +41,9 @@ docs/diagnostics.md. --drive sync runs the clean drives of the synchronous drive
 Clean drives (no effect, --clean-seeds, default 21-30) are one case: a drive is FLAGGED
 when an effect is named, `unexplained.significant` is true, `change_points` is not empty,
 `map_misfit.regions` is not empty (a region where the map is wrong, on a drive whose map
-is the building: check_map.py's clean rule, checked here on the same drives), or (with
---auto) `auto.final_with` is not empty. The rule: at most ceil(5 % of the seeds)
+is the building: check_map.py's clean rule, checked here on the same drives), the
+non-parametric step reports a dependence (`dependence.baseline.found`, a printed lead), or
+(with --auto) `auto.final_with` is not empty. The rule: at most ceil(5 % of the seeds)
 drives flagged, i.e. 1 of 10 (1 of 20). With 10 seeds a literal ">= 95 %" would allow no
 false alarm at all, which a detector with a true 5 % false-alarm rate fails 40 % of the
 time; allowing 1 of 10 fails it 9 % of the time at 5 %, and 0.4 % of the time at 1 %.
@@ -319,6 +320,10 @@ def check_clean(args, seeds):
                                                       if isinstance(c, dict)])
         except Missing as e:
             missing.append(str(e))
+        # a dependence the non-parametric step reports is a flag too (a printed lead)
+        dep = j.get("dependence", {}).get("baseline", {}).get("found") if isinstance(j.get("dependence"), dict) else None
+        if dep:
+            why.append("dependence %s" % ["%s~%s" % (f.get("component"), f.get("variable")) for f in dep])
         if args.auto:
             a, a_s, err = diagnose(args, log, base + "_auto.json", ["--with", "auto"])
             if a is None:
