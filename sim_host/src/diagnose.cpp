@@ -217,7 +217,7 @@ bool diagnoseDrive(const Odolog& log, const DiagnoseOptions& opt, json* out, std
   }
   const json unexplained = unexplainedJson(res_base, named.empty() ? res_base : res_final, !named.empty());
   // The non-parametric step: on which state variables the motion misfit depends, in the
-  // model as it was and in what the named effects leave; each finding lists the library's
+  // model as it was; each finding lists the library's
   // forms in its variable that discovery selected (none: a form the library lacks). Its
   // findings are leads (printed, proposed to --with auto), not the verdict: on clean drives
   // of the independent simulator the heading misfit depended on the turn rate's change on
@@ -236,7 +236,7 @@ bool diagnoseDrive(const Odolog& log, const DiagnoseOptions& opt, json* out, std
     }
     return d;
   };
-  json dependence = {{"baseline", dependenceOf(res_base)}, {"left", named.empty() ? json(nullptr) : dependenceOf(res_final)}};
+  json dependence = {{"baseline", dependenceOf(res_base)}};
 
   const json change_points = disc.changePoints(res_base, named.empty() ? nullptr : &res_final);
   json ranking = rank.toJson(joint);

@@ -87,9 +87,9 @@ void printDiagnoseFindings(const nlohmann::ordered_json& r) {
       if (row.contains("not_named_because"))
         std::fprintf(stderr, "  not named: %s: %s\n", row["effect"].get<std::string>().c_str(),
                      row["not_named_because"].get<std::string>().c_str());
-  // The non-parametric step: what the misfit depends on (in what the named effects leave).
+  // The non-parametric step: what the misfit of the model as it was depends on.
   if (r.contains("dependence") && r["dependence"].is_object()) {
-    const auto& d = r["dependence"]["left"].is_object() ? r["dependence"]["left"] : r["dependence"]["baseline"];
+    const auto& d = r["dependence"]["baseline"];
     if (d.is_object() && d["found"].is_array())
       for (const auto& f : d["found"]) {
         std::string forms;

@@ -12,7 +12,7 @@ namespace {
 
 using json = nlohmann::ordered_json;
 
-constexpr int kDepShifts = 499;      // circular shifts of the null
+constexpr int kDepShifts = 199;      // circular shifts of the null (p >= 0.005: its level 0.01 needs at most one)
 constexpr double kDepWinsor = 5.0;   // responses beyond median +- this many MADs are clipped there
 constexpr double kDepMinLeaf = 0.05; // a leaf holds at least this share of the fitted travel
 constexpr int kDepCuts = 10;         // candidate cuts: the deciles of the travel
