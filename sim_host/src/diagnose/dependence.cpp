@@ -219,36 +219,63 @@ void stateVariables(bool wheels, std::vector<std::string>* names, std::vector<st
   }
 }
 
+namespace {
+
+/// One table for both questions about a variable: the library's features in it (what
+/// discovery may have selected), the ones the parametric step proposes (at the finding's
+/// component, or on a wheel: "@R", "@L"), and the catalogue's effects in it.
+struct VariableForms {
+  const char* variable;
+  std::vector<std::string> library, proposed, catalogue;
+};
+
+const std::vector<VariableForms>& variableForms() {
+  static const std::vector<VariableForms> table = {
+      {"v", {"v2", "abs_ds", "ds"}, {"v2", "abs_ds"}, {"speed_scale", "wheel_speed_scale"}},
+      {"speed", {"v2", "abs_ds", "ds"}, {"v2", "abs_ds"}, {"speed_scale", "wheel_speed_scale"}},
+      {"w", {"w2", "abs_dth", "v_w", "dth"}, {"w2", "abs_dth"}, {"turn_slip", "rotation_slip"}},
+      {"abs_w", {"w2", "abs_dth", "v_w", "dth"}, {"w2", "abs_dth"}, {"turn_slip", "rotation_slip"}},
+      {"a_along",
+       {"acc_pos_ds", "acc_neg_ds", "acc_ds", "acc_R_ds", "acc_L_ds", "jerk_ds"},
+       {"acc_pos_ds", "acc_neg_ds"},
+       {}},
+      {"alpha", {"dw_ds"}, {"dw_ds"}, {}},
+      {"heading", {"cos_heading_ds", "sin_heading_ds"}, {"cos_heading_ds", "sin_heading_ds"}, {}},
+      {"x", {"x_ds"}, {"x_ds"}, {"region_scale"}},
+      {"y", {"y_ds"}, {"y_ds"}, {"region_scale"}},
+      {"t", {"t_ds", "dt"}, {"s_ds", "t_ds"}, {"radius_drift"}},
+      {"s_abs", {"s_ds", "t_ds"}, {"s_ds", "t_ds"}, {"radius_drift"}},
+      {"s_rev", {"rev_near_ds", "rev", "rev_R", "rev_L"}, {"rev_near_ds"}, {"backlash", "wheel_backlash"}},
+      {"v_R", {"ds_R_speed", "acc_R_ds", "ds_R"}, {"ds_R_speed@R"}, {"wheel_speed_scale"}},
+      {"v_L", {"ds_L_speed", "acc_L_ds", "ds_L"}, {"ds_L_speed@L"}, {"wheel_speed_scale"}},
+  };
+  return table;
+}
+
+const VariableForms* formsOf(const std::string& v) {
+  for (const VariableForms& f : variableForms())
+    if (v == f.variable) return &f;
+  return nullptr;
+}
+
+}  // namespace
+
 std::vector<std::string> featuresInVariable(const std::string& v) {
-  if (v == "v" || v == "speed") return {"v2", "abs_ds", "ds"};
-  if (v == "w" || v == "abs_w") return {"w2", "abs_dth", "v_w", "dth"};
-  if (v == "a_along") return {"acc_pos_ds", "acc_neg_ds", "acc_ds", "acc_R_ds", "acc_L_ds", "jerk_ds"};
-  if (v == "alpha") return {"dw_ds"};
-  if (v == "heading") return {"cos_heading_ds", "sin_heading_ds"};
-  if (v == "x") return {"x_ds"};
-  if (v == "y") return {"y_ds"};
-  if (v == "t") return {"t_ds", "dt"};
-  if (v == "s_abs") return {"s_ds", "t_ds"};
-  if (v == "s_rev") return {"rev_near_ds", "rev", "rev_R", "rev_L"};
-  if (v == "v_R") return {"ds_R_speed", "acc_R_ds", "ds_R"};
-  if (v == "v_L") return {"ds_L_speed", "acc_L_ds", "ds_L"};
-  return {};
+  const VariableForms* f = formsOf(v);
+  return f != nullptr ? f->library : std::vector<std::string>{};
 }
 
 ProposedForms proposedForms(const std::string& v, const std::string& c) {
-  const std::string at = "@" + c;
-  if (v == "v" || v == "speed") return {{"v2" + at, "abs_ds" + at}, {"speed_scale", "wheel_speed_scale"}};
-  if (v == "w" || v == "abs_w") return {{"w2" + at, "abs_dth" + at}, {"turn_slip", "rotation_slip"}};
-  if (v == "a_along") return {{"acc_pos_ds" + at, "acc_neg_ds" + at}, {}};
-  if (v == "alpha") return {{"dw_ds" + at}, {}};
-  if (v == "heading") return {{"cos_heading_ds" + at, "sin_heading_ds" + at}, {}};
-  if (v == "x") return {{"x_ds" + at}, {"region_scale"}};
-  if (v == "y") return {{"y_ds" + at}, {"region_scale"}};
-  if (v == "t" || v == "s_abs") return {{"s_ds" + at, "t_ds" + at}, {"radius_drift"}};
-  if (v == "s_rev") return {{"rev_near_ds" + at}, {"backlash", "wheel_backlash"}};
-  if (v == "v_R") return {{"ds_R_speed@wheel_R"}, {"wheel_speed_scale"}};
-  if (v == "v_L") return {{"ds_L_speed@wheel_L"}, {"wheel_speed_scale"}};
-  return {};
+  ProposedForms out;
+  const VariableForms* f = formsOf(v);
+  if (f == nullptr) return out;
+  for (const std::string& p : f->proposed) {
+    const std::size_t at = p.find('@');
+    out.features.push_back(at == std::string::npos ? p + "@" + c
+                                                    : p.substr(0, at) + (p[at + 1] == 'R' ? "@wheel_R" : "@wheel_L"));
+  }
+  out.catalogue = f->catalogue;
+  return out;
 }
 
 json dependenceJson(const StateTable& t) {

@@ -185,6 +185,17 @@ json autoSearch(const Engine<DriveT>& en, const Ranking<DriveT>& rank, const Res
       std::vector<Term> terms;
     };
     std::vector<Cand> cands;
+    // A term joins a feature candidate once; the candidate fits when its terms fit the slots.
+    auto addTerm = [](Cand* c, const Term& t) {
+      if (std::any_of(c->terms.begin(), c->terms.end(), [&](const Term& q) { return sameTerm(q, t); })) return;
+      c->terms.push_back(t);
+      c->name += (c->name.empty() ? "" : ",") + withToken(t);
+    };
+    auto fits = [](const Cand& c) {
+      std::size_t nm = 0, nb = 0;
+      for (const Term& t : c.terms) (t.kind == Term::Kind::kBeam ? nb : nm)++;
+      return !c.name.empty() && nm <= FeatureSlots::kMax && nb <= FeatureSlots::kMax;
+    };
     for (int e : rank.named()) {  // the best named catalogue effect not in the model yet
       if (std::find(cur_cat.begin(), cur_cat.end(), e) != cur_cat.end()) continue;
       Cand c{fx[e].name, cur_cat, cur_terms};
@@ -197,17 +208,12 @@ json autoSearch(const Engine<DriveT>& en, const Ranking<DriveT>& rank, const Res
       auto take = [&](const Selection& sel, const std::vector<Term>& terms) {
         for (int j : sel.terms) {
           const Term& t = terms[static_cast<std::size_t>(j)];
-          if (withToken(t).empty()) continue;  // a host-only term: no feature effect carries it
-          if (std::any_of(c.terms.begin(), c.terms.end(), [&](const Term& q) { return sameTerm(q, t); })) continue;
-          c.terms.push_back(t);
-          c.name += (c.name.empty() ? "" : ",") + withToken(t);
+          if (!withToken(t).empty()) addTerm(&c, t);  // a host-only term: no feature effect carries it
         }
       };
       take(carriedSelection(res.motion, res.motion_sel, res.motion_terms), res.motion_terms);
       take(carriedSelection(res.beam, res.beam_sel, res.beam_terms), res.beam_terms);
-      std::size_t nm = 0, nb = 0;
-      for (const Term& t : c.terms) (t.kind == Term::Kind::kBeam ? nb : nm)++;
-      if (!c.name.empty() && nm <= FeatureSlots::kMax && nb <= FeatureSlots::kMax) cands.push_back(c);
+      if (fits(c)) cands.push_back(c);
     }
     // The forms the non-parametric step proposes in the variables the misfit depends on (its
     // two strongest findings): their feature terms together, and each catalogue effect.
@@ -222,17 +228,13 @@ json autoSearch(const Engine<DriveT>& en, const Ranking<DriveT>& rank, const Res
           if (!effects::parseMotionFeature(tok.substr(0, at).c_str(), &t.mf) ||
               !effects::parseMotionTarget(tok.substr(at + 1).c_str(), &t.mt))
             continue;
-          if (Engine<DriveT>::kSync && (t.mt == MotionTarget::kWheelR || t.mt == MotionTarget::kWheelL)) continue;
-          if (std::any_of(c.terms.begin(), c.terms.end(), [&](const Term& q) { return sameTerm(q, t); })) continue;
-          c.terms.push_back(t);
-          c.name += (c.name.empty() ? "" : ",") + withToken(t);
+          if (!(Engine<DriveT>::kSync && (t.mt == MotionTarget::kWheelR || t.mt == MotionTarget::kWheelL)))
+            addTerm(&c, t);
         }
-        std::size_t nm = 0;
-        for (const Term& t : c.terms) nm += t.kind == Term::Kind::kMotion;
         auto known = [&](const std::string& n) {
           return std::any_of(cands.begin(), cands.end(), [&](const Cand& q) { return q.name == n; });
         };
-        if (!c.name.empty() && nm <= FeatureSlots::kMax && !known(c.name)) cands.push_back(c);
+        if (fits(c) && !known(c.name)) cands.push_back(c);
         for (const std::string& name : pf.catalogue)
           for (int e = 0; e < static_cast<int>(fx.size()); ++e)
             if (fx[e].name == name && std::find(cur_cat.begin(), cur_cat.end(), e) == cur_cat.end() && !known(name)) {
@@ -251,14 +253,8 @@ json autoSearch(const Engine<DriveT>& en, const Ranking<DriveT>& rank, const Res
         jump = {{Term::Kind::kMotion, MotionFeature::kDsRAfter, MotionTarget::kWheelR},
                 {Term::Kind::kMotion, MotionFeature::kDsLAfter, MotionTarget::kWheelL}};
       }
-      for (const Term& t : jump)
-        if (std::none_of(c.terms.begin(), c.terms.end(), [&](const Term& q) { return sameTerm(q, t); })) {
-          c.terms.push_back(t);
-          c.name += (c.name.empty() ? "" : ",") + withToken(t);
-        }
-      std::size_t nm = 0;
-      for (const Term& t : c.terms) nm += t.kind == Term::Kind::kMotion;
-      if (!c.name.empty() && nm <= FeatureSlots::kMax) {
+      for (const Term& t : jump) addTerm(&c, t);
+      if (fits(c)) {
         c.name += " (step at t = " + fmt("%.1f", tc) + " s)";
         cands.push_back(c);
       }
