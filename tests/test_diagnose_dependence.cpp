@@ -62,12 +62,35 @@ TEST(DiagnoseDependence, FindsAThresholdFormInItsVariable) {
       if (f["component"] != "along" || f["variable"] != "a_along") continue;
       ++found;
       EXPECT_LE(f["p_adjusted"].get<double>(), kDependenceAlpha);
+      EXPECT_LT(f["explained_next"].get<double>(), f["explained"].get<double>());  // it acts in its own segment
       // the leaves: the top one (a_along > 1) carries the loss
       EXPECT_LT(f["leaves"].back()["mean"].get<double>(), -0.01);
       EXPECT_GT(f["leaves"].back()["from"].get<double>(), 0.5);
     }
   }
   EXPECT_GE(found, 6);  // its power at this size, measured: 7 of 10
+}
+
+TEST(DiagnoseDependence, AVariableThatAnswersTheMisfitIsNotALead) {
+  // A steering controller that sees the heading error: the turn rate's change (alpha) of a
+  // segment answers the error of the one before and, in part, its own. The misfit explains
+  // alpha, not the reverse: the next segment's alpha explains it better than its own, and the
+  // pair goes to follows_misfit, never to found (the leads).
+  int follows = 0;
+  for (unsigned seed = 1; seed <= 10; ++seed) {
+    StateTable t = makeTable(450, seed, [](const Eigen::RowVectorXd&) { return 0.0; });
+    for (Eigen::Index i = 0; i < t.state.rows(); ++i)
+      t.state(i, 5) = 0.3 * t.state(i, 5) - 40.0 * (0.5 * t.response(i, 2) + (i > 0 ? t.response(i - 1, 2) : 0.0));
+    const auto j = dependenceJson(t);
+    ASSERT_TRUE(j["found"].is_array());
+    for (const auto& f : j["found"]) EXPECT_FALSE(f["variable"] == "alpha") << "seed " << seed;
+    for (const auto& f : j["follows_misfit"]) {
+      if (f["component"] != "heading" || f["variable"] != "alpha") continue;
+      ++follows;
+      EXPECT_GE(f["explained_next"].get<double>(), f["explained"].get<double>());
+    }
+  }
+  EXPECT_GE(follows, 8);  // the same-segment share alone reaches the test's level on most tables
 }
 
 TEST(DiagnoseDependence, PureNoiseFindsNothingAtItsRate) {

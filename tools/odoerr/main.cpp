@@ -100,6 +100,13 @@ void printDiagnoseFindings(const nlohmann::ordered_json& r) {
                      f["p_adjusted"].get<double>(),
                      forms.empty() ? "no form of the library in it was selected" : ("selected: " + forms).c_str());
       }
+    if (d.is_object() && d["follows_misfit"].is_array())
+      for (const auto& f : d["follows_misfit"])
+        std::fprintf(stderr, "  the %s misfit goes with %s, which follows it (the next segment's %s explains %.0f %%, "
+                     "its own %.0f %%: a controller answering the error?): not a lead\n",
+                     f["component"].get<std::string>().c_str(), f["variable"].get<std::string>().c_str(),
+                     f["variable"].get<std::string>().c_str(), 100 * f["explained_next"].get<double>(),
+                     100 * f["explained"].get<double>());
   }
   if (r.contains("map_misfit") && r["map_misfit"].is_object() && r["map_misfit"]["regions"].is_array() &&
       !r["map_misfit"]["regions"].empty()) {

@@ -288,12 +288,13 @@ json dependenceJson(const StateTable& t) {
   json j = {{"method",
              "a regression tree of depth 2 (leaves of at least 5 % of the travel) of each motion residual per metre "
              "on each state variable, cross-validated over time blocks; null: circular shifts of the states, the "
-             "maximum over the pairs"},
+             "maximum over the pairs; a finding whose next segment's state explains as much follows the misfit"},
             {"segments", n},
             {"alpha", kDependenceAlpha},
             {"shifts", kDepShifts}};
   if (n < kMinSegments) {
     j["found"] = nullptr;
+    j["follows_misfit"] = nullptr;
     j["pairs"] = nullptr;
     j["note"] = "too few segments with travel: " + std::to_string(n) + " (the analysis needs " +
                 std::to_string(kMinSegments) + ")";
@@ -351,7 +352,7 @@ json dependenceJson(const StateTable& t) {
   }
   j["tested"] = tested;
   if (!tested) j["note"] = "no pair explains 1 % of the misfit: no test drawn";
-  json pairs = json::array(), found = json::array();
+  json pairs = json::array(), found = json::array(), follows = json::array();
   struct Hit {
     int c, v;
     double g, p;
@@ -376,16 +377,23 @@ json dependenceJson(const StateTable& t) {
       if (tree.n[l] > 0)
         shape.push_back({{"from", tree.lo[l]}, {"to", tree.hi[l]}, {"mean", tree.mean[l]}, {"segments", tree.n[l]},
                          {"travel_m", tree.w[l]}});
-    found.push_back({{"component", kDepComponents[h.c]},
+    // The direction: a variable the robot's controller sets in reply to the error it sees
+    // (the turn rate's change after a heading error) is explained by the misfit, not its
+    // cause, and its next segment's value explains the misfit at least as well as its own.
+    const double g_next = depGain(r.col(h.c), w, s.col(h.v), order[static_cast<std::size_t>(h.v)], fold, t.folds, 1);
+    json& into = g_next >= h.g ? follows : found;
+    into.push_back({{"component", kDepComponents[h.c]},
                      {"unit", kDepComponentUnits[h.c]},
                      {"variable", t.names[static_cast<std::size_t>(h.v)]},
                      {"variable_unit", t.units[static_cast<std::size_t>(h.v)]},
                      {"explained", h.g},
+                     {"explained_next", g_next},
                      {"p_adjusted", h.p},
                      {"leaves", shape},
                      {"library_forms", featuresInVariable(t.names[static_cast<std::size_t>(h.v)])}});
   }
   j["found"] = found;
+  j["follows_misfit"] = follows;
   j["pairs"] = pairs;
   return j;
 }

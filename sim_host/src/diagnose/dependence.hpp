@@ -45,8 +45,10 @@ void stateVariables(bool wheels, std::vector<std::string>* names, std::vector<st
 
 /// The analysis: {"segments", "weight_m", "method", "alpha", "shifts", "pairs": [every pair's
 /// explained share and adjusted p], "found": [the pairs with p <= alpha, strongest first, each
-/// with its tree's leaves (ranges, means, counts) and the library's forms in the variable]}. Fewer than `kMinSegments` usable segments: the
-/// object says so ("found": null, "note"), never a finding.
+/// with its tree's leaves (ranges, means, counts) and the library's forms in the variable],
+/// "follows_misfit": [those of them whose next segment's value explains the misfit at least as
+/// well as their own: a reply to the error, not its cause]}. Fewer than `kMinSegments` usable
+/// segments: the object says so ("found": null, "note"), never a finding.
 nlohmann::ordered_json dependenceJson(const StateTable& t);
 
 /// The smallest number of segments with travel the analysis runs on.
