@@ -4,6 +4,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 
 #include "dependence.hpp"
 #include "heldout.hpp"
@@ -19,28 +20,45 @@ using effects::MotionTarget;
 
 constexpr int kMaxSteps = 3;        // --with auto adds at most this many effects
 constexpr double kAcceptZ = -2.0;   // a step is kept when the held-out error falls by this paired z
-constexpr double kWorseZ = 2.0;     // ... and no held-out error rises by this much
+constexpr double kWorseZ = 2.0;     // a named effect is not confirmed when a held-out error rises this much
 
 bool sameTerm(const Term& a, const Term& b) {
   return a.kind == b.kind && a.mf == b.mf && a.mt == b.mt && a.bf == b.bf && a.wheel == b.wheel;
 }
 
-/// The paired z of a held-out comparison: the NLL's, and the pose error's when the log has
-/// truth. The step's score is the lower (the stronger fall).
+/// The score of a held-out comparison: the deciding metric, its paired z, and whether it
+/// falls enough for a step (`ok`; false when the metric has no z).
 struct Score {
-  double z = 0, worst = 0;
+  const char* by = "nll";
+  double z = 0;
   bool ok = false;
 };
-Score scoreOf(const json& held) {
+
+/// The highest paired z (the worst rise) over the NLL and, when the log has truth, the pose
+/// error; 0 without either.
+double worstZ(const json& held) {
+  const json& p = held["paired"];
+  double w = -std::numeric_limits<double>::infinity();
+  for (const char* k : {"nll", "pose_err_m"})
+    if (p.contains(k) && p[k]["change_z"].is_number()) w = std::max(w, p[k]["change_z"].get<double>());
+  return std::isfinite(w) ? w : 0.0;
+}
+
+/// The deciding score of a held-out comparison (a --with auto step, a rival test, a named
+/// effect's confirmation): the held-out pose error's paired z where the log has truth (the
+/// error the user wants lowered), the NLL's otherwise, and always for what adds only noise
+/// effects (`noise`: they move no pose, they widen its uncertainty). The other metrics are
+/// reported beside it, not voted: with truth, a candidate that lowers the pose error may
+/// raise the beams' NLL (a filter more confident than it should be), and one that lowers only
+/// the NLL has not made the odometry better.
+Score decidingScore(const json& held, bool noise = false) {
   Score s;
   const json& p = held["paired"];
-  std::vector<double> zs;
-  for (const char* k : {"nll", "pose_err_m"})
-    if (p.contains(k) && p[k]["change_z"].is_number()) zs.push_back(p[k]["change_z"].get<double>());
-  if (zs.empty()) return s;
-  s.z = *std::min_element(zs.begin(), zs.end());
-  s.worst = *std::max_element(zs.begin(), zs.end());
-  s.ok = s.z <= kAcceptZ && s.worst < kWorseZ;
+  const bool truth = p.contains("pose_err_m") && p["pose_err_m"]["change_z"].is_number();
+  s.by = truth && !noise ? "pose_err_m" : "nll";
+  if (!p.contains(s.by) || !p[s.by]["change_z"].is_number()) return s;
+  s.z = p[s.by]["change_z"].get<double>();
+  s.ok = s.z <= kAcceptZ;
   return s;
 }
 
@@ -276,7 +294,10 @@ json autoSearch(const Engine<DriveT>& en, const Ranking<DriveT>& rank, const Res
       for (int i : a_idx)
         if (std::find(b_idx.begin(), b_idx.end(), i) == b_idx.end()) added.push_back(i);
       const HeldoutResult h = compareHeldout(before, b_idx, after, added, {cands[c].name}, opt, leave_out);
-      const Score s = scoreOf(h.json);
+      const bool noise = !added.empty() && std::all_of(added.begin(), added.end(), [&](int i) {
+        return after.effects()[static_cast<std::size_t>(i)].kind == EffectKind::kNoise;
+      });
+      const Score s = decidingScore(h.json, noise);
       tried.push_back({{"step", step}, {"added", cands[c].name}, {"paired", h.json["paired"]}, {"kept", false}});
       if (s.ok && (best < 0 || s.z < best_s.z)) {
         best = static_cast<int>(c);
@@ -355,8 +376,8 @@ json autoSearch(const Engine<DriveT>& en, const Ranking<DriveT>& rank, const Res
           {"final_with", cur_names},
           {"overall", overall},
           {"tried", tried},
-          {"rule", "a step is kept when its held-out NLL or pose error falls with paired z <= -2 and neither rises "
-                   "with z >= +2; candidates: the best named catalogue effect, the features the residuals "
+          {"rule", "a step is kept when its held-out pose error (with truth; else, or when it adds only noise "
+                   "effects, the NLL) falls with paired z <= -2, the strongest fall first; candidates: the best named catalogue effect, the features the residuals "
                    "still depend on, the forms the dependence findings propose, the step at a change point"}};
 }
 
@@ -365,12 +386,14 @@ json confirmHeldout(const Engine<DriveT>& en, int e, const DiagnoseOptions& opt,
                     const std::vector<std::uint8_t>* leave_out) {
   const std::string name = en.effects()[static_cast<std::size_t>(e)].name;
   const HeldoutResult h = compareHeldout(en, {}, {e}, {name}, opt, leave_out);
-  const Score s = scoreOf(h.json);
-  // Not contradicted: some held-out error falls (z < 0) and none rises with z >= +2. A weak
-  // true effect may not reach z <= -2 on held-out data, and the likelihood named it; an
-  // effect that improves nothing held out, or makes one error clearly worse, is not named.
-  const bool kept = s.z < 0 && s.worst < kWorseZ;
-  return {{"effect", name}, {"paired", h.json["paired"]}, {"z", s.z}, {"worst_z", s.worst}, {"confirmed", kept}};
+  const Score d = decidingScore(h.json, en.effects()[static_cast<std::size_t>(e)].kind == EffectKind::kNoise);
+  const double worst = worstZ(h.json);
+  // Not contradicted: the deciding held-out error (the pose error with truth, else and for a
+  // noise effect the NLL) falls (z < 0) and none rises with z >= +2. A weak true effect may not reach z <= -2 on
+  // held-out data, and the likelihood named it; an effect that improves nothing held out, or
+  // makes one error clearly worse, is not named.
+  const bool kept = d.z < 0 && worst < kWorseZ;
+  return {{"effect", name}, {"paired", h.json["paired"]}, {"z", d.z}, {"worst_z", worst}, {"confirmed", kept}};
 }
 
 template <template <typename> class DriveT>
@@ -406,17 +429,13 @@ json rivalTest(const Engine<DriveT>& en, int e, const Residuals& base, const Dia
   // A mimic fits the beams about as well as the true form (that is what makes it one), so the
   // beams' NLL may not decide the kind; where the log has truth, the held-out pose error
   // does: the form of the right kind moves the robot where it went.
-  const json& p = h.json["paired"];
-  const bool truth = p["pose_err_m"]["change_z"].is_number();
-  const char* by = truth ? "pose_err_m" : "nll";
-  const json& zj = p[by]["change_z"];
-  const double z = zj.is_number() ? zj.get<double>() : 0.0;
+  const Score d = decidingScore(h.json);
   return {{"effect", fx[static_cast<std::size_t>(e)].name},
           {"rival", name},
-          {"paired", p},
-          {"decided_by", by},
-          {"z", z},
-          {"won", zj.is_number() && z <= kAcceptZ}};
+          {"paired", h.json["paired"]},
+          {"decided_by", d.by},
+          {"z", d.z},
+          {"won", d.ok}};
 }
 
 bool writeSuggestion(const std::string& dir, const std::vector<Term>& terms, const std::vector<double>& coef,
