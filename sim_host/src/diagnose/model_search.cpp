@@ -377,8 +377,9 @@ json autoSearch(const Engine<DriveT>& en, const Ranking<DriveT>& rank, const Res
           {"overall", overall},
           {"tried", tried},
           {"rule", "a step is kept when its held-out pose error (with truth; else, or when it adds only noise "
-                   "effects, the NLL) falls with paired z <= -2, the strongest fall first; candidates: the best named catalogue effect, the features the residuals "
-                   "still depend on, the forms the dependence findings propose, the step at a change point"}};
+                   "effects, the NLL) falls with paired z <= -2, the strongest fall first; candidates: the best "
+                   "named catalogue effect, the features the residuals still depend on, the forms the dependence "
+                   "findings propose, the step at a change point"}};
 }
 
 template <template <typename> class DriveT>
@@ -389,9 +390,9 @@ json confirmHeldout(const Engine<DriveT>& en, int e, const DiagnoseOptions& opt,
   const Score d = decidingScore(h.json, en.effects()[static_cast<std::size_t>(e)].kind == EffectKind::kNoise);
   const double worst = worstZ(h.json);
   // Not contradicted: the deciding held-out error (the pose error with truth, else and for a
-  // noise effect the NLL) falls (z < 0) and none rises with z >= +2. A weak true effect may not reach z <= -2 on
-  // held-out data, and the likelihood named it; an effect that improves nothing held out, or
-  // makes one error clearly worse, is not named.
+  // noise effect the NLL) falls (z < 0) and none rises with z >= +2. A weak true effect may
+  // not reach z <= -2 on held-out data, and the likelihood named it; an effect that improves
+  // nothing held out, or makes one error clearly worse, is not named.
   const bool kept = d.z < 0 && worst < kWorseZ;
   return {{"effect", name}, {"paired", h.json["paired"]}, {"z", d.z}, {"worst_z", worst}, {"confirmed", kept}};
 }
