@@ -216,28 +216,22 @@ bool diagnoseDrive(const Odolog& log, const DiagnoseOptions& opt, json* out, std
     res_final = disc.analyse(residualRun(named), &scales);
   }
   const json unexplained = unexplainedJson(res_base, named.empty() ? res_base : res_final, !named.empty());
-  // The non-parametric step: on which state variables the motion misfit depends, in the
-  // model as it was; each finding lists the library's
-  // forms in its variable that discovery selected (none: a form the library lacks). Its
-  // findings are leads (printed, proposed to --with auto), not the verdict: on clean drives
-  // of the independent simulator the heading misfit depended on the turn rate's change on
-  // 4 of 80 (docs/diagnostics.md, "Dependence").
-  auto dependenceOf = [&](const Residuals& r) {
-    json d = dependenceJson(r.state);
-    if (!d["found"].is_array()) return d;
-    for (json& f : d["found"]) {
+  // The non-parametric step: on which state variables the motion misfit of the model as it
+  // was depends; each finding lists the library's forms in its variable that discovery
+  // selected (none: a form the library lacks). Its findings are leads (printed, proposed to
+  // --with auto), not the verdict; a variable that follows the misfit is not one
+  // (docs/diagnostics.md, "Dependence").
+  json dependence = {{"baseline", dependenceJson(res_base.state)}};
+  if (json& found = dependence["baseline"]["found"]; found.is_array())
+    for (json& f : found) {
       json sel = json::array();
       const std::vector<std::string> forms = f["library_forms"];
-      for (std::size_t k = 0; k < r.motion_sel.terms.size(); ++k) {
-        const Term& tm = r.motion_terms[static_cast<std::size_t>(r.motion_sel.terms[k])];
+      for (int j : res_base.motion_sel.terms) {
+        const Term& tm = res_base.motion_terms[static_cast<std::size_t>(j)];
         if (std::find(forms.begin(), forms.end(), tm.name()) != forms.end()) sel.push_back(tm.name() + "@" + tm.target());
       }
       f["selected_forms"] = sel;
     }
-    return d;
-  };
-  json dependence = {{"baseline", dependenceOf(res_base)}};
-
   const json change_points = disc.changePoints(res_base, named.empty() ? nullptr : &res_final);
   json ranking = rank.toJson(joint);
   for (json& row : ranking)
