@@ -46,6 +46,12 @@ import time
 import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, HERE)
+# The simulator's modules (odosim.py is the command, these its rooms).
+import effect_table as sim_effects  # noqa: E402
+import laser as sim_laser  # noqa: E402
+import motion as sim_motion  # noqa: E402
+import world as sim_world  # noqa: E402
 ODOSIM = os.path.join(HERE, "odosim.py")
 HEADER = {"drive", "param", "laser", "wall", "init", "meta"}
 DATA_RANK = {"enc": 0, "scan": 1, "pose": 2, "truth": 3}
@@ -262,18 +268,18 @@ class ZeroRng:
         return np.zeros(shape)
 
 
-def open_loop(sim, effects, seed=7, minutes=1.0, noise=False, drive="diff"):
+def open_loop(effects, seed=7, minutes=1.0, noise=False, drive="diff"):
     """(enc, truth, record) of an open-loop drive (no steering correction)."""
-    n = int(round(minutes * 60.0 / sim.DT))
+    n = int(round(minutes * 60.0 / sim_world.DT))
     rngs = [np.random.default_rng([seed, i]) for i in range(4)]
     rec = {}
-    enc, truth = sim.simulate_motion(drive, n, effects, sim.Path(), rngs[0],
-                                     rngs[1] if noise else ZeroRng(), rngs[2],
-                                     steer_feedback=False, record=rec)
+    enc, truth = sim_motion.simulate_motion(drive, n, effects, sim_motion.Path(), rngs[0],
+                                            rngs[1] if noise else ZeroRng(), rngs[2],
+                                            steer_feedback=False, record=rec)
     return enc, truth, rec
 
 
-def increments(sim, truth):
+def increments(truth):
     """Per cycle (rho, dtheta, side) from the truth: the mid-point rule inverted."""
     d = np.diff(truth, axis=0)
     mid = truth[:-1, 2] + 0.5 * d[:, 2]
@@ -281,10 +287,10 @@ def increments(sim, truth):
     return c * d[:, 0] + s * d[:, 1], d[:, 2], -s * d[:, 0] + c * d[:, 1]
 
 
-def wheels(sim, truth):
+def wheels(truth):
     """Per cycle true wheel travels (R, L) of a diff drive (side must be 0)."""
-    rho, dth, _ = increments(sim, truth)
-    half = 0.5 * sim.WHEELBASE * sim.DIFF_TRUTH["delta_d"]
+    rho, dth, _ = increments(truth)
+    half = 0.5 * sim_world.WHEELBASE * sim_world.DIFF_TRUTH["delta_d"]
     return rho + dth * half, rho - dth * half
 
 
@@ -308,7 +314,7 @@ def span_losses(x_clean, x_eff, revs):
     return [float(-(np.sign(x_clean[a:b]) * d[a:b]).sum()) for a, b in zip(bounds, bounds[1:])]
 
 
-def check_wheel_forms(sim):
+def check_wheel_forms():
     b_R, b_L = 0.01, 0.006
     # scripted: the right wheel reverses alone (3 mm, 7 mm and 3 cm steps, one straddling
     # the end of the span); the left wheel keeps its direction and loses nothing
@@ -316,7 +322,7 @@ def check_wheel_forms(sim):
     left = [0.004] * len(right)
     losses_R, losses_L = [], []
     for b, seq, out in ((b_R, right, losses_R), (b_L, left, losses_L)):
-        sl = sim.SpanLoss(b)
+        sl = sim_motion.SpanLoss(b)
         lost = [x - x * sl.factor(x) for x in seq]
         revs = own_reversals(seq)
         out.extend(span_losses(np.array(seq), np.array(seq) - np.array(lost), revs))
@@ -326,12 +332,12 @@ def check_wheel_forms(sim):
           f"at its 3 own reversals (b_R {b_R}), the left wheel, not reversing, "
           f"{len(losses_L)} losses")
 
-    enc0, tr0, rec0 = open_loop(sim, {})
-    R0, L0 = wheels(sim, tr0)
+    enc0, tr0, rec0 = open_loop({})
+    R0, L0 = wheels(tr0)
     check(np.allclose(R0, rec0["wheel_R"], atol=1e-12) and np.allclose(L0, rec0["wheel_L"], atol=1e-12),
           "noise-free open-loop drive: wheel travels recovered from the truth")
-    enc, tr, _ = open_loop(sim, {"wheel_backlash": [b_R, b_L]})
-    R, L = wheels(sim, tr)
+    enc, tr, _ = open_loop({"wheel_backlash": [b_R, b_L]})
+    R, L = wheels(tr)
     same_enc = np.array_equal(enc, enc0)
     # reversals and signs from the drive model's own travel (exact zeros when standing)
     WR, WL = rec0["wheel_R"], rec0["wheel_L"]
@@ -347,20 +353,20 @@ def check_wheel_forms(sim):
           f"{min(lL):.6f}..{max(lL):.6f} m, nothing lost before the first")
 
     kR, kL = 0.05, 0.02
-    enc, tr, _ = open_loop(sim, {"wheel_speed_scale": [kR, kL]})
-    R, L = wheels(sim, tr)
+    enc, tr, _ = open_loop({"wheel_speed_scale": [kR, kL]})
+    R, L = wheels(tr)
     m = np.abs(R0) > 1e-6
-    eR = np.abs(R[m] / R0[m] - (1 + kR * np.abs(R0[m]) / sim.DT)).max()
+    eR = np.abs(R[m] / R0[m] - (1 + kR * np.abs(R0[m]) / sim_world.DT)).max()
     m = np.abs(L0) > 1e-6
-    eL = np.abs(L[m] / L0[m] - (1 + kL * np.abs(L0[m]) / sim.DT)).max()
+    eL = np.abs(L[m] / L0[m] - (1 + kL * np.abs(L0[m]) / sim_world.DT)).max()
     check(np.array_equal(enc, enc0) and eR < 1e-9 and eL < 1e-9,
           f"wheel_speed_scale {kR},{kL}: each wheel's travel scaled by 1 + k_X |v_X| "
           f"(max error {max(eR, eL):.1e})")
 
     t_c, k_ab = 20.0, -0.02
-    enc, tr, _ = open_loop(sim, {"ooc_abrupt_scale": [t_c, k_ab]})
-    R, L = wheels(sim, tr)
-    kc = int(round(t_c / sim.DT))
+    enc, tr, _ = open_loop({"ooc_abrupt_scale": [t_c, k_ab]})
+    R, L = wheels(tr)
+    kc = int(round(t_c / sim_world.DT))
     m = np.abs(R0) > 1e-6
     ratio = np.where(m, R / np.where(m, R0, 1.0), np.nan)
     before_ok = np.array_equal(tr[:kc + 1], tr0[:kc + 1])
@@ -368,26 +374,26 @@ def check_wheel_forms(sim):
     first_changed = int(np.argmax(np.any(tr != tr0, axis=1))) - 1    # cycle index
     check(before_ok and after_ok and np.allclose(L, L0, atol=1e-12) and first_changed == kc,
           f"ooc_abrupt_scale {t_c},{k_ab}: truth identical up to t_c, the right wheel "
-          f"scaled by 1 + kR from the cycle at t = {first_changed * sim.DT:.2f} s on, "
+          f"scaled by 1 + kR from the cycle at t = {first_changed * sim_world.DT:.2f} s on, "
           f"the left untouched")
 
     k_dr = 0.1
-    enc, tr, _ = open_loop(sim, {"ooc_one_wheel_drag": [k_dr]})
-    R, L = wheels(sim, tr)
+    enc, tr, _ = open_loop({"ooc_one_wheel_drag": [k_dr]})
+    R, L = wheels(tr)
     m = np.abs(L0) > 1e-6
-    eL = np.abs(L[m] / L0[m] - (1 - k_dr * (L0[m] / sim.DT) ** 2)).max()
+    eL = np.abs(L[m] / L0[m] - (1 - k_dr * (L0[m] / sim_world.DT) ** 2)).max()
     check(np.array_equal(enc, enc0) and eL < 1e-9 and np.allclose(R, R0, atol=1e-12),
           f"ooc_one_wheel_drag {k_dr}: L scaled by 1 - k v_L^2 (max error {eL:.1e}), "
           f"R untouched")
 
 
-def check_robot_forms(sim):
-    enc0, tr0, rec0 = open_loop(sim, {})
-    rho0, dth0, side0 = increments(sim, tr0)
+def check_robot_forms():
+    enc0, tr0, rec0 = open_loop({})
+    rho0, dth0, side0 = increments(tr0)
     travel = rec0["travel"]
 
     cx, cy = 0.012, -0.008
-    enc, tr, _ = open_loop(sim, {"ooc_world_drift": [cx, cy]})
+    enc, tr, _ = open_loop({"ooc_world_drift": [cx, cy]})
     s_abs = np.concatenate([[0.0], np.cumsum(np.abs(travel))])
     ex = np.abs((tr[:, 0] - tr0[:, 0]) - cx * s_abs).max()
     ey = np.abs((tr[:, 1] - tr0[:, 1]) - cy * s_abs).max()
@@ -398,8 +404,8 @@ def check_robot_forms(sim):
           f"{s_abs[-1]:.1f} m; error {max(ex, ey):.1e}), heading unchanged")
 
     k, th0 = 0.03, 0.5
-    enc, tr, _ = open_loop(sim, {"ooc_heading_scale": [k, th0]})
-    rho, dth, side = increments(sim, tr)
+    enc, tr, _ = open_loop({"ooc_heading_scale": [k, th0]})
+    rho, dth, side = increments(tr)
     m = np.abs(rho0) > 1e-6
     want = 1 + k * np.cos(tr0[:-1, 2] - th0)
     err = np.abs(rho[m] / rho0[m] - want[m]).max()
@@ -408,9 +414,9 @@ def check_robot_forms(sim):
           f"(factor {want.min():.3f}..{want.max():.3f}, error {err:.1e})")
 
     kc = 0.2
-    enc, tr, _ = open_loop(sim, {"ooc_turn_slip_cubic": [kc]})
-    rho, dth, side = increments(sim, tr)
-    a = (rho0 / sim.DT) * (dth0 / sim.DT)
+    enc, tr, _ = open_loop({"ooc_turn_slip_cubic": [kc]})
+    rho, dth, side = increments(tr)
+    a = (rho0 / sim_world.DT) * (dth0 / sim_world.DT)
     want = kc * a ** 3 * rho0
     err = np.abs(side - want).max()
     check(np.array_equal(tr[:, 2], tr0[:, 2]) and np.abs(side0).max() < 1e-12 and err < 1e-12
@@ -419,33 +425,32 @@ def check_robot_forms(sim):
           f"{1e3 * np.abs(want).max():.3f} mm, error {err:.1e})")
 
     # with the drive's noise: an effect changes neither the encoders nor the noise draws
-    encn, trn, _ = open_loop(sim, {}, noise=True)
-    encw, trw, _ = open_loop(sim, {"ooc_world_drift": [cx, cy]}, noise=True)
+    encn, trn, _ = open_loop({}, noise=True)
+    encw, trw, _ = open_loop({"ooc_world_drift": [cx, cy]}, noise=True)
     check(np.array_equal(encn, encw) and np.array_equal(trn[:, 2], trw[:, 2]),
           "same seed, same noise: open-loop noisy drives with and without world drift "
           "have the same encoders and heading")
 
 
-def check_beam_forms(sim):
+def check_beam_forms():
     # one scan from a fixed pose facing the wall x = 10 at normal incidence
     x, y, th = 3.0, 4.0, 0.0      # beam 0 deg hits x = 10 square on, beam 40 deg at 40 deg
-    truth = np.tile([x, y, th], (sim.SCAN_EVERY + 1, 1))
-    ref_k, ref = sim.simulate_scans(truth, sim.SCAN_EVERY, {}, np.random.default_rng(1))
-    alpha = sim.ANGLE_MIN + sim.ANGLE_INC * np.arange(sim.N_BEAMS)
-    laser = [sim.N_BEAMS, sim.ANGLE_MIN, sim.ANGLE_INC, sim.RANGE_MAX, sim.RANGE_SIGMA,
-             *sim.MOUNT]
+    truth = np.tile([x, y, th], (sim_world.SCAN_EVERY + 1, 1))
+    ref_k, ref = sim_laser.simulate_scans(truth, sim_world.SCAN_EVERY, {}, np.random.default_rng(1))
+    alpha = sim_world.ANGLE_MIN + sim_world.ANGLE_INC * np.arange(sim_world.N_BEAMS)
+    laser = [sim_world.N_BEAMS, sim_world.ANGLE_MIN, sim_world.ANGLE_INC, sim_world.RANGE_MAX,
+             sim_world.RANGE_SIGMA, *sim_world.MOUNT]
     c = 0.015
-    _, r = sim.simulate_scans(truth, sim.SCAN_EVERY, {"ooc_incidence_bias": [c]},
-                              np.random.default_rng(1))
+    _, r = sim_laser.simulate_scans(truth, sim_world.SCAN_EVERY, {"ooc_incidence_bias": [c]},
+                                    np.random.default_rng(1))
     d = (r - ref)[0]
     i0 = int(np.argmin(np.abs(alpha)))                    # straight ahead: normal
     i40 = int(np.argmin(np.abs(alpha - math.radians(40))))  # hits x = 10 at 40 deg
-    ox = x + sim.MOUNT[0]
+    ox = x + sim_world.MOUNT[0]
     # incidence of each beam computed here: the wall hit by the ray cast of this file
-    walls = np.array(sim.WALLS)
-    inc_ok = True
-    want = np.zeros(sim.N_BEAMS)
-    for i in range(sim.N_BEAMS):
+    walls = np.array(sim_world.WALLS)
+    want = np.zeros(sim_world.N_BEAMS)
+    for i in range(sim_world.N_BEAMS):
         best, cosv = math.inf, None
         ca, sa = math.cos(alpha[i]), math.sin(alpha[i])
         for x1, y1, x2, y2 in walls:
@@ -467,8 +472,8 @@ def check_beam_forms(sim):
           f"(error {err:.1e})")
 
     s = 0.002
-    _, r = sim.simulate_scans(truth, sim.SCAN_EVERY, {"ooc_beam_angle_scale": [s]},
-                              np.random.default_rng(1))
+    _, r = sim_laser.simulate_scans(truth, sim_world.SCAN_EVERY, {"ooc_beam_angle_scale": [s]},
+                                    np.random.default_rng(1))
     noise = ref[0] - ray_ranges(x, y, th, laser, walls)          # the same draws
     lz = list(laser)
     want = np.array([ray_ranges(x, y, th, lz[:1] + [a * (1 + s)] + [0.0] + lz[3:], walls)[0]
@@ -478,16 +483,16 @@ def check_beam_forms(sim):
           f"ooc_beam_angle_scale {s}: beam alpha cast at alpha (1 + s): straight ahead "
           f"unchanged, every beam matches a ray cast at the scaled angle (error {err:.1e})")
 
-    enc0, tr0, _ = open_loop(sim, {}, noise=True)
+    enc0, tr0, _ = open_loop({}, noise=True)
     n = len(tr0) - 1
-    k0, r0 = sim.simulate_scans(tr0, n, {}, np.random.default_rng(3))
+    k0, r0 = sim_laser.simulate_scans(tr0, n, {}, np.random.default_rng(3))
     ct = 1e-4
-    k1, r1 = sim.simulate_scans(tr0, n, {"ooc_range_time_drift": [ct]},
-                                np.random.default_rng(3))
+    k1, r1 = sim_laser.simulate_scans(tr0, n, {"ooc_range_time_drift": [ct]},
+                                      np.random.default_rng(3))
     d = r1 - r0
-    err = np.nanmax(np.abs(d - ct * (k0 * sim.DT)[:, None]))
-    check(err < 1e-9 and abs(np.nanmax(d) - ct * k0[-1] * sim.DT) < 1e-9,
-          f"ooc_range_time_drift {ct}: ranges + c t (scan at {k0[-1] * sim.DT:.0f} s: "
+    err = np.nanmax(np.abs(d - ct * (k0 * sim_world.DT)[:, None]))
+    check(err < 1e-9 and abs(np.nanmax(d) - ct * k0[-1] * sim_world.DT) < 1e-9,
+          f"ooc_range_time_drift {ct}: ranges + c t (scan at {k0[-1] * sim_world.DT:.0f} s: "
           f"+{1e3 * np.nanmax(d):.2f} mm; error {err:.1e})")
 
 
@@ -514,10 +519,10 @@ def map_error_args():
     return out
 
 
-def check_map_errors(sim, log, log0):
+def check_map_errors(log, log0):
     """log: the drive with MAP_OBJECTS, MAP_PHANTOM and MAP_SHIFT; log0: the clean drive
     of the same seed."""
-    nominal = np.array(sim.WALLS, dtype=float)
+    nominal = np.array(sim_world.WALLS, dtype=float)
     walls = log["walls"]
     metas = [m for m in log["meta"] if m[0] == "truth_map_error"]
     want_meta = ([["truth_map_error", "object"] + [repr(v) for v in o] for o in MAP_OBJECTS]
@@ -586,12 +591,10 @@ def check_map_errors(sim, log, log0):
 
 
 def main():
-    sys.path.insert(0, HERE)
-    import odosim as sim
     t0 = time.perf_counter()
-    check_wheel_forms(sim)
-    check_robot_forms(sim)
-    check_beam_forms(sim)
+    check_wheel_forms()
+    check_robot_forms()
+    check_beam_forms()
     print(f"(in-process form checks: {time.perf_counter() - t0:.2f} s)")
 
     with tempfile.TemporaryDirectory() as tmp:
@@ -643,7 +646,7 @@ def main():
         mapped = os.path.join(tmp, "map.odolog")
         if generate(mapped, "--minutes", "1", "--seed", "3", *map_error_args()):
             try:
-                check_map_errors(sim, read_log(mapped), read_log(clean))
+                check_map_errors(read_log(mapped), read_log(clean))
             except (LogError, OSError) as e:
                 check(False, f"map errors: valid odolog v1 ({e})")
         p = subprocess.run([sys.executable, ODOSIM, "--list-map-errors"], capture_output=True,
@@ -654,7 +657,7 @@ def main():
         p = subprocess.run([sys.executable, ODOSIM, "--list-effects"], capture_output=True,
                            text=True)
         listed = {line.split()[0] for line in p.stdout.splitlines() if line.strip()}
-        want = set(sim.TEST_SIZES)
+        want = set(sim_effects.TEST_SIZES)
         check(p.returncode == 0 and len(want) >= 10 and want <= listed,
               f"--list-effects lists the {len(want)} per-wheel and out-of-catalogue forms")
 
