@@ -2,9 +2,7 @@
 
 from __future__ import annotations
 
-import math
-
-from world import WALLS
+from world import WALLS, parse_values
 
 # ---------------------------------------------------------------------------
 # Effects: name -> (number of parameters or None for 1..len(WALLS), kind, summary)
@@ -88,12 +86,7 @@ def parse_effects(specs, parser):
                          + ", ".join(EFFECTS))
         if name in effects:
             parser.error(f"--effect: {name} given twice")
-        try:
-            values = [float(v) for v in vals.split(",")]
-        except ValueError:
-            parser.error(f"--effect {spec!r}: values must be numbers separated by commas")
-        if not all(math.isfinite(v) for v in values):
-            parser.error(f"--effect {spec!r}: values must be finite")
+        values = parse_values("--effect", spec, vals, parser)
         count = EFFECTS[name][0]
         if count is None:
             if not 1 <= len(values) <= len(WALLS):

@@ -112,6 +112,17 @@ def box_distance(px, py, x, y, w, h):
     return np.hypot(dx, dy)
 
 
+def parse_values(flag, spec, vals, parser):
+    """The comma-separated finite numbers of a NAME=V1,V2,... option (exit 2 otherwise)."""
+    try:
+        values = [float(v) for v in vals.split(",")]
+    except ValueError:
+        parser.error(f"{flag} {spec!r}: values must be numbers separated by commas")
+    if not all(math.isfinite(v) for v in values):
+        parser.error(f"{flag} {spec!r}: values must be finite")
+    return values
+
+
 def parse_map_errors(specs, parser, path=None):
     """['kind=v1,...', ...] -> {"object": [[x, y, w, h]..], "phantom": [[..]..],
     "shift": [[i, d]..]} (kinds absent when not given); errors go through parser.error
@@ -132,12 +143,7 @@ def parse_map_errors(specs, parser, path=None):
         kind = kind.strip()
         if kind not in MAP_ERRORS:
             parser.error(f"--map-error: unknown kind {kind!r}; known: " + ", ".join(MAP_ERRORS))
-        try:
-            values = [float(v) for v in vals.split(",")]
-        except ValueError:
-            parser.error(f"--map-error {spec!r}: values must be numbers separated by commas")
-        if not all(math.isfinite(v) for v in values):
-            parser.error(f"--map-error {spec!r}: values must be finite")
+        values = parse_values("--map-error", spec, vals, parser)
         count = MAP_ERRORS[kind][0]
         if len(values) != count:
             parser.error(f"--map-error {kind}: takes {count} values "
