@@ -62,6 +62,22 @@ TEST(DiagnoseRegression, SelectsTheTermsTheDataHoldAndEstimatesThem) {
   EXPECT_LT(s.explained(), 0.26);
 }
 
+TEST(DiagnoseRegression, NoColumnToFitIsAnEmptySelection) {
+  // No nuisance column and no candidate that helps (a drive whose one late scan put its
+  // only cluster at index 10^6): the final fit has no column; it gives no coefficient
+  // (under UBSan, the fuzz corpus's input e0cbd252... once indexed a zero-size matrix here).
+  Design d = makeDesign(200, 3, {}, 0.0, 5);
+  d.n_nuisance = 0;
+  d.x = d.x.rightCols(3).eval();
+  for (int& c : d.cluster) c += 1000000;
+  const Selection s = forwardSelect(d, SelectOptions{});
+  EXPECT_TRUE(s.terms.empty());
+  EXPECT_TRUE(s.coef.empty());
+  EXPECT_TRUE(s.sigma.empty());
+  EXPECT_TRUE(s.nuisance.empty());
+  EXPECT_TRUE(std::isfinite(s.sse_cv));
+}
+
 TEST(DiagnoseRegression, PureNoiseSelectsNothingOnNearlyEverySeed) {
   int selected = 0;
   for (unsigned seed = 0; seed < 40; ++seed) {

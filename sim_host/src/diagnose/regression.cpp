@@ -93,10 +93,15 @@ double cvSse(const Folds& f, const std::vector<int>& c) {
 /// Full-data fit of columns c with cluster-robust (sandwich) standard errors.
 bool robustFit(const Design& d, const Folds& f, const std::vector<int>& c, Eigen::VectorXd* beta,
                Eigen::VectorXd* sigma) {
+  const int p = static_cast<int>(c.size());
+  if (p == 0) {  // no column (no nuisance, nothing selected): nothing to estimate
+    beta->resize(0);
+    sigma->resize(0);
+    return true;
+  }
   const Eigen::MatrixXd g = subM(f.all.g, c);
   if (!solve(g, subV(f.all.b, c), beta)) return false;
   const int nc = d.cluster.empty() ? 0 : *std::max_element(d.cluster.begin(), d.cluster.end()) + 1;
-  const int p = static_cast<int>(c.size());
   Eigen::MatrixXd score = Eigen::MatrixXd::Zero(std::max(1, nc), p);
   for (Eigen::Index i = 0; i < d.x.rows(); ++i) {
     double u = d.y[i];
