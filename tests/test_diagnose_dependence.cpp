@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <random>
+#include <utility>
 
 #include "diagnose/dependence.hpp"
 #include "odoerr/sim/random.hpp"
@@ -15,6 +16,7 @@ using odoerr::sim::diag::kDependenceAlpha;
 using odoerr::sim::diag::SegmentState;
 using odoerr::sim::diag::stateVariables;
 using odoerr::sim::diag::StateTable;
+using odoerr::sim::diag::targetMoves;
 
 namespace {
 
@@ -104,6 +106,33 @@ TEST(DiagnoseDependence, PureNoiseFindsNothingAtItsRate) {
     with_finding += !j["found"].empty();
   }
   EXPECT_LE(with_finding, 1);
+}
+
+TEST(DiagnoseDependence, AFormIsSelectedForTheComponentsItsTargetMoves) {
+  // The geometry, derived here: a small error on each target of a robot heading 0.3 rad with
+  // a 0.5 m wheelbase, as a world residual, into the segment's robot frame; a finding's
+  // component is moved by a target when that component is not zero.
+  const double th = 0.3, d = 0.5, e = 1e-3;
+  SegmentState seg;
+  seg.open(0.0, 0.0, std::numeric_limits<double>::infinity());
+  seg.cycle(0.01, 1.0, 0.0, 1.0, 1.0, 0.0, 0.0, th);  // one metre at heading th
+  const double c = std::cos(th), s = std::sin(th);
+  const std::pair<const char*, Eigen::Vector3d> errors[] = {
+      {"along", {e * c, e * s, 0}},
+      {"cross", {-e * s, e * c, 0}},
+      {"heading", {0, 0, e}},
+      {"world_x", {e, 0, 0}},
+      {"world_y", {0, e, 0}},
+      {"wheel_R", {0.5 * e * c, 0.5 * e * s, e / d}},    // the right wheel a little further
+      {"wheel_L", {0.5 * e * c, 0.5 * e * s, -e / d}}};  // the left one
+  const char* const components[] = {"along", "cross", "heading"};
+  for (const auto& [target, world] : errors) {
+    const Eigen::Vector3d r = seg.perMetre(world);
+    for (int k = 0; k < 3; ++k)
+      EXPECT_EQ(targetMoves(target, components[k]), std::abs(r[k]) > 1e-9)
+          << target << " on " << components[k] << ": " << r[k];
+  }
+  EXPECT_FALSE(targetMoves("range", "along"));
 }
 
 TEST(DiagnoseDependence, TooFewSegmentsIsNoFinding) {

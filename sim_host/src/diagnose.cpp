@@ -226,9 +226,11 @@ bool diagnoseDrive(const Odolog& log, const DiagnoseOptions& opt, json* out, std
     for (json& f : found) {
       json sel = json::array();
       const std::vector<std::string> forms = f["library_forms"];
+      const std::string component = f["component"];
       for (int j : res_base.motion_sel.terms) {
         const Term& tm = res_base.motion_terms[static_cast<std::size_t>(j)];
-        if (std::find(forms.begin(), forms.end(), tm.name()) != forms.end()) sel.push_back(tm.name() + "@" + tm.target());
+        if (std::find(forms.begin(), forms.end(), tm.name()) != forms.end() && targetMoves(tm.target(), component))
+          sel.push_back(tm.name() + "@" + tm.target());
       }
       f["selected_forms"] = sel;
     }

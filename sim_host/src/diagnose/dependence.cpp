@@ -108,8 +108,10 @@ DepTree depFit(const std::vector<DepRow>& rows) {
 /// (weighted; each fold predicted from a tree fitted on the others). `order`: the segments
 /// by the variable's value. `shift` pairs response i with the state of segment
 /// (i + shift) mod n.
-double depGain(const Eigen::VectorXd& r, const Eigen::VectorXd& w, const Eigen::VectorXd& x,
-               const std::vector<int>& order, const std::vector<int>& fold, int folds, int shift) {
+/// The columns are matrix columns taken by reference (no copy per pair and shift).
+using Column = Eigen::Ref<const Eigen::VectorXd>;
+double depGain(const Column& r, const Column& w, const Column& x, const std::vector<int>& order,
+               const std::vector<int>& fold, int folds, int shift) {
   const int n = static_cast<int>(r.size());
   double sse_tree = 0, sse_const = 0;
   std::vector<DepRow> rows;
@@ -278,6 +280,16 @@ ProposedForms proposedForms(const std::string& v, const std::string& c) {
   return out;
 }
 
+bool targetMoves(const std::string& target, const std::string& component) {
+  if (target == component) return true;
+  const bool wheel = target == "wheel_R" || target == "wheel_L";
+  const bool world = target == "world_x" || target == "world_y";
+  if (component == "along") return wheel || world;
+  if (component == "cross") return world;
+  if (component == "heading") return wheel;
+  return false;
+}
+
 json dependenceJson(const StateTable& t) {
   // The usable segments: some travel, finite values.
   std::vector<int> use;
@@ -331,12 +343,10 @@ json dependenceJson(const StateTable& t) {
   }
   auto all = [&](int shift, Eigen::MatrixXd* g) {
     for (int c = 0; c < 3; ++c)
-      for (int v = 0; v < nv; ++v) {
-        const Eigen::VectorXd col = s.col(v);
+      for (int v = 0; v < nv; ++v)
         (*g)(c, v) = varies[static_cast<std::size_t>(v)]
-                         ? depGain(r.col(c), w, col, order[static_cast<std::size_t>(v)], fold, t.folds, shift)
+                         ? depGain(r.col(c), w, s.col(v), order[static_cast<std::size_t>(v)], fold, t.folds, shift)
                          : 0.0;
-      }
   };
   Eigen::MatrixXd g(3, nv), gs(3, nv);
   all(0, &g);

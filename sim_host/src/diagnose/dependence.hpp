@@ -92,4 +92,10 @@ struct ProposedForms {
 };
 ProposedForms proposedForms(const std::string& variable, const std::string& component);
 
+/// Whether a motion form on `target` (along, cross, heading, world_x, world_y, wheel_R,
+/// wheel_L) moves the robot-frame misfit `component` (along, cross, heading): a wheel's
+/// travel moves along and heading, a world-frame displacement along and cross, a robot-frame
+/// target its own component only. A finding's selected forms are those that move its component.
+bool targetMoves(const std::string& target, const std::string& component);
+
 }  // namespace odoerr::sim::diag
