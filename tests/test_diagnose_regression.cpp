@@ -63,9 +63,10 @@ TEST(DiagnoseRegression, SelectsTheTermsTheDataHoldAndEstimatesThem) {
 }
 
 TEST(DiagnoseRegression, NoColumnToFitIsAnEmptySelection) {
-  // No nuisance column and no candidate that helps (a drive whose one late scan put its
-  // only cluster at index 10^6): the final fit has no column; it gives no coefficient
-  // (under UBSan, the fuzz corpus's input e0cbd252... once indexed a zero-size matrix here).
+  // A fit with no column (no nuisance, no candidate that helps) on rows whose clusters are
+  // numbered from 10^6 (the pipeline fuzz corpus's e0cbd252...: a scan stamped 6 x 10^6 s)
+  // gives no coefficient. The robust fit once offset its zero-size score matrix's null data
+  // to row 10^6: undefined behaviour that UBSan reports (`ctest --preset host-asan`).
   Design d = makeDesign(200, 3, {}, 0.0, 5);
   d.n_nuisance = 0;
   d.x = d.x.rightCols(3).eval();

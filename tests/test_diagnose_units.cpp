@@ -1,10 +1,11 @@
 // diagnose's units that need no drive: the --with grammar, the feature terms' names,
-// tokens and words; the detection power's sizes and sentence.
+// tokens and words; the detection power's sizes and sentence; the held-out blocks.
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
 
+#include "diagnose/heldout_blocks.hpp"
 #include "diagnose/map_misfit.hpp"
 #include "diagnose/model_search.hpp"
 #include "diagnose/power.hpp"
@@ -227,4 +228,40 @@ TEST(DiagnosePower, SizesFromTheCandidatesSigmaAndReasonsWhereThereIsNone) {
   EXPECT_NE(s.find("(80 % power); not excited by this drive: backlash, range_bias; no size stated for turn_noise"),
             std::string::npos)
       << s;
+}
+
+TEST(DiagnoseHeldout, BlocksFollowTheEventsNotTheTimeTheySpan) {
+  // Events every 0.1 s for 40 s: after 10 s of warm-up and a 0.5 s gap, 14 whole blocks of
+  // 2 s from 10.5 s, in 4 folds.
+  std::vector<double> t;
+  for (int k = 0; k <= 400; ++k) t.push_back(0.1 * k);
+  const HeldoutBlocks a(t, 10.0, 0.5, 2.0, 4);
+  ASSERT_EQ(a.blocks().size(), 14u);
+  EXPECT_DOUBLE_EQ(a.blocks()[0].first, 10.5);
+  EXPECT_DOUBLE_EQ(a.blocks()[13].second, 38.5);
+  EXPECT_EQ(a.folds(), 4);
+  EXPECT_EQ(a.blockAt(11.0), 0);
+  EXPECT_EQ(a.blockAt(10.0), -1);  // warm-up
+  EXPECT_EQ(a.blockAt(39.0), -1);  // after the last whole block
+  EXPECT_TRUE(a.inHeldout(13.0, 1));
+  EXPECT_FALSE(a.inHeldout(13.0, 0));
+  EXPECT_TRUE(a.nearHeldout(12.3, 1));   // 0.2 s before block 1
+  EXPECT_FALSE(a.nearHeldout(11.5, 1));  // 1 s before it
+  // The same drive paused for 70 days (a scan stamped 6,010,000 s, as a fuzzed log had) and
+  // resumed for 10 s: the blocks are those that hold events, numbered on across the pause,
+  // not the 3 million of 2 s the pause spans.
+  std::vector<double> p(t.begin(), t.begin() + 201);  // to 20 s
+  for (int k = 0; k <= 100; ++k) p.push_back(6010000.0 + 0.1 * k);
+  const HeldoutBlocks b(p, 10.0, 0.5, 2.0, 4);
+  ASSERT_EQ(b.blocks().size(), 10u);  // 10.5 .. 20.5 s: 5; from 6,009,998.5 s: 5 whole ones
+  EXPECT_EQ(b.blockAt(19.0), 4);
+  EXPECT_EQ(b.blockAt(6010000.2), 5);
+  EXPECT_EQ(b.blockAt(6010001.0), 6);
+  EXPECT_EQ(b.blockAt(1000.0), -1);  // in the pause
+  EXPECT_TRUE(b.inHeldout(6010000.2, 1));
+  EXPECT_FALSE(b.nearHeldout(1000.0, 1));
+  // Times a double holds but an int does not: no block, no conversion.
+  const HeldoutBlocks c({0.0, 1e300}, 10.0, 0.5, 2.0, 4);
+  EXPECT_EQ(c.blocks().size(), 0u);
+  EXPECT_EQ(c.blockAt(5e299), -1);
 }

@@ -175,3 +175,40 @@ TEST(PipelineMutations, TheImpossibleLogsKeepTheRules) {
   }
   EXPECT_EQ(test::checkPipeline(joinLines(blind), "blind.odolog", work, true), "");
 }
+
+TEST(PipelineMutations, AMapTooLargeForTheResidualGridWidensItsCells) {
+  // A 56 km diagonal wall 70 m from the room: at the asked 0.25 m the grid of residuals would
+  // have 2.6 x 10^10 cells and the wall 113,000 bins; the cells double until the grid holds
+  // at most 2^20, the wall's bins lengthen to 4,096, and the JSON says so. A wall whose box
+  // a double cannot hold (the fuzzer's 1e308) gives no grid, and the rules still hold.
+  std::vector<std::string> lines = splitLines(test::simulatedLog(33, 300));
+  const std::size_t at = lineOf(lines, "wall", 0);
+  lines.insert(lines.begin() + static_cast<std::ptrdiff_t>(at), "wall -20000 -20100 20000 19900");
+  Odolog log;
+  std::string error;
+  ASSERT_TRUE(parseOdolog(joinLines(lines), "wide.odolog", &log, &error)) << error;
+  DiagnoseOptions d;
+  d.threads = 1;
+  nlohmann::ordered_json out;
+  ASSERT_TRUE(diagnoseOdolog(log, d, &out, &error)) << error;
+  const auto& m = out["map_misfit"];
+  EXPECT_EQ(m["cell_asked_m"].get<double>(), 0.25);
+  EXPECT_EQ(m["cell_m"].get<double>(), 64.0);  // 0.25 x 2^8: 626^2 = 0.39 M cells; at 32 m, 1.56 M
+  EXPECT_LE(m["grid"]["nx"].get<double>() * m["grid"]["ny"].get<double>(), 1048576.0);
+  EXPECT_NE(m["grid_note"].get<std::string>().find("cells of 64 m instead of 0.25"), std::string::npos)
+      << m["grid_note"];
+  EXPECT_EQ(m["walls"][0]["bins"].size(), 4096u);
+  EXPECT_NEAR(m["walls"][0]["bin_m"].get<double>(), 40000 * std::sqrt(2.0) / 4096, 1e-9);
+  EXPECT_EQ(m["walls"][1]["bin_m"].get<double>(), 0.5);
+  EXPECT_EQ(test::firstNonFinite(out), "");
+
+  lines[at] = "wall -1e308 -100 1e308 -99";
+  const std::string work = test::tempDir("pipeline-wide");
+  test::Reached reached;
+  EXPECT_EQ(test::checkPipeline(joinLines(lines), "huge.odolog", work, true, &reached), "");
+  ASSERT_TRUE(parseOdolog(joinLines(lines), "huge.odolog", &log, &error)) << error;
+  nlohmann::ordered_json huge;
+  ASSERT_TRUE(diagnoseOdolog(log, d, &huge, &error)) << error;
+  EXPECT_NE(huge["map_misfit"]["grid_note"].get<std::string>().find("no grid"), std::string::npos);
+  EXPECT_EQ(huge["map_misfit"]["grid"]["nx"], 0);
+}

@@ -50,7 +50,9 @@ bool Engine<DriveT, Effects>::prepare(std::string* error) {
   events_ = buildEvents<Drive>(log_, ticks_a_, ticks_b_, opt_.cycle_m, lc_.beams > 0);
   t0_ = events_.front().t;
   t1_ = events_.back().t;
-  heldout_ = HeldoutBlocks(t0_, t1_, opt_.warmup_s, opt_.gap_s, opt_.block_s, opt_.folds);
+  std::vector<double> times(events_.size());
+  for (std::size_t k = 0; k < events_.size(); ++k) times[k] = events_[k].t;
+  heldout_ = HeldoutBlocks(times, opt_.warmup_s, opt_.gap_s, opt_.block_s, opt_.folds);
   return true;
 }
 

@@ -14,21 +14,33 @@ namespace odoerr::sim::diag {
 class HeldoutBlocks {
  public:
   HeldoutBlocks() = default;
-  /// The blocks of a drive from t0 to t1 (warmup_s, gap_s, block_s and folds as in
-  /// DiagnoseOptions); fewer folds than asked when the drive has fewer blocks.
-  HeldoutBlocks(double t0, double t1, double warmup_s, double gap_s, double block_s, int folds)
-      : start_(t0 + warmup_s + gap_s), gap_s_(gap_s), block_s_(block_s) {
-    const double span = t1 - start_;
-    const int nb = block_s > 0 && span > 0 ? static_cast<int>(span / block_s) : 0;
-    for (int b = 0; b < nb; ++b) blocks_.push_back({start_ + b * block_s, start_ + (b + 1) * block_s});
-    folds_ = std::max(0, std::min(folds, nb));
+  /// The blocks of a drive whose events are at `times` (non-decreasing; warmup_s, gap_s,
+  /// block_s and folds as in DiagnoseOptions): the time after warmup_s + gap_s cut into
+  /// whole blocks of block_s, of which those that hold an event are kept (a pause in the log
+  /// makes none: the cost follows the events, not the time they span), numbered in time
+  /// order. Fewer folds than asked when the drive has fewer blocks.
+  HeldoutBlocks(const std::vector<double>& times, double warmup_s, double gap_s, double block_s, int folds)
+      : gap_s_(gap_s), block_s_(block_s) {
+    if (times.empty() || !(block_s > 0)) return;
+    start_ = times.front() + warmup_s + gap_s;
+    const double whole = std::floor((times.back() - start_) / block_s);  // whole blocks up to the last event
+    for (double t : times) {
+      const double g = std::floor((t - start_) / block_s);  // the block's index on the grid
+      if (!(g >= 0 && g < whole)) continue;
+      if (grid_.empty() || grid_.back() < g) {
+        grid_.push_back(g);
+        blocks_.push_back({start_ + g * block_s, start_ + (g + 1) * block_s});
+      }
+    }
+    folds_ = std::max(0, std::min(folds, static_cast<int>(blocks_.size())));
   }
 
   /// The block that holds time t (-1: none).
   int blockAt(double t) const {
-    if (blocks_.empty() || t < start_) return -1;
-    const int b = static_cast<int>((t - start_) / block_s_);
-    return b < static_cast<int>(blocks_.size()) ? b : -1;
+    if (blocks_.empty()) return -1;
+    const double g = std::floor((t - start_) / block_s_);
+    const auto it = std::lower_bound(grid_.begin(), grid_.end(), g);
+    return it != grid_.end() && *it == g ? static_cast<int>(it - grid_.begin()) : -1;
   }
   bool heldBlock(int b, int fold) const { return b >= 0 && folds_ > 0 && b % folds_ == fold; }
   bool inHeldout(double t, int fold) const { return heldBlock(blockAt(t), fold); }
@@ -37,9 +49,8 @@ class HeldoutBlocks {
     if (blocks_.empty()) return false;
     const double lo = std::floor((t - gap_s_ - start_) / block_s_);
     const double hi = std::floor((t + gap_s_ - start_) / block_s_);
-    const int last = static_cast<int>(blocks_.size()) - 1;
-    for (int b = static_cast<int>(std::max(0.0, lo)); b <= std::min(double(last), hi); ++b)
-      if (heldBlock(b, fold)) return true;
+    for (auto it = std::lower_bound(grid_.begin(), grid_.end(), lo); it != grid_.end() && *it <= hi; ++it)
+      if (heldBlock(static_cast<int>(it - grid_.begin()), fold)) return true;
     return false;
   }
   const std::vector<std::pair<double, double>>& blocks() const { return blocks_; }
@@ -47,6 +58,7 @@ class HeldoutBlocks {
 
  private:
   std::vector<std::pair<double, double>> blocks_;  ///< [start, end) of each; block b in fold b % folds_
+  std::vector<double> grid_;                        ///< each block's index on the grid of block_s from start_
   double start_ = 0, gap_s_ = 0, block_s_ = 0;
   int folds_ = 0;
 };

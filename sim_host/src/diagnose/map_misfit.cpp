@@ -56,13 +56,14 @@ double twoSidedQuantile(double p) {
 template <typename En>
 MapMisfit mapMisfit(const En& en, const typename En::RunOut& run, double cell_m) {
   MapMisfit m;
-  m.cell_m = cell_m;
+  m.cell_m = m.cell_asked_m = cell_m;
   const Odolog& log = en.log();
   const auto& laser = en.laser();
   const int nbeams = std::max(1, laser.beams());
   m.in_region.assign(log.scans.size() * static_cast<std::size_t>(nbeams), 0);
   if (log.walls.empty() || run.post_beams.empty() || !(cell_m > 0)) return m;
-  double x0 = 1e300, x1 = -1e300, y0 = 1e300, y1 = -1e300;
+  const double inf = std::numeric_limits<double>::infinity();
+  double x0 = inf, x1 = -inf, y0 = inf, y1 = -inf;
   for (const auto& w : log.walls) {
     x0 = std::min({x0, w.x1, w.x2});
     x1 = std::max({x1, w.x1, w.x2});
@@ -71,8 +72,23 @@ MapMisfit mapMisfit(const En& en, const typename En::RunOut& run, double cell_m)
   }
   m.x0 = x0 - kMarginM;
   m.y0 = y0 - kMarginM;
-  m.nx = static_cast<int>(std::ceil((x1 - x0 + 2 * kMarginM) / cell_m));
-  m.ny = static_cast<int>(std::ceil((y1 - y0 + 2 * kMarginM) / cell_m));
+  // The grid: at most kMaxGridCells cells, so a wider map gets wider cells (checked in
+  // floating point before any conversion to int; a span a double cannot hold gets none).
+  const double span_x = x1 - x0 + 2 * kMarginM, span_y = y1 - y0 + 2 * kMarginM;
+  if (!std::isfinite(span_x) || !std::isfinite(span_y)) {
+    m.grid_note = "the map's walls span more than a double holds: no grid of residuals";
+    return m;
+  }
+  while (std::ceil(span_x / cell_m) * std::ceil(span_y / cell_m) > kMaxGridCells) cell_m *= 2;
+  if (cell_m > m.cell_asked_m) {
+    char note[200];
+    std::snprintf(note, sizeof note, "the map spans %.3g x %.3g m: cells of %.3g m instead of %.3g (at most %.0f cells)",
+                  span_x, span_y, cell_m, m.cell_asked_m, kMaxGridCells);
+    m.grid_note = note;
+  }
+  m.cell_m = cell_m;
+  m.nx = static_cast<int>(std::ceil(span_x / cell_m));
+  m.ny = static_cast<int>(std::ceil(span_y / cell_m));
   const std::size_t ncell = static_cast<std::size_t>(m.nx) * static_cast<std::size_t>(m.ny);
   m.count.assign(ncell, 0);
   m.mean.assign(ncell, 0.0);
@@ -89,9 +105,13 @@ MapMisfit mapMisfit(const En& en, const typename En::RunOut& run, double cell_m)
   };
   std::vector<Hit> hits;
   m.walls.resize(log.walls.size());
+  m.wall_bin_m.resize(log.walls.size());
   for (std::size_t i = 0; i < log.walls.size(); ++i) {
     const auto& w = log.walls[i];
-    m.walls[i].resize(static_cast<std::size_t>(std::max(1.0, std::ceil(std::hypot(w.x2 - w.x1, w.y2 - w.y1) / kWallBinM))));
+    const double len = std::hypot(w.x2 - w.x1, w.y2 - w.y1);  // finite: the span is
+    const double bins = std::clamp(std::ceil(len / kWallBinM), 1.0, double(kMaxWallBins));
+    m.walls[i].resize(static_cast<std::size_t>(bins));
+    m.wall_bin_m[i] = std::max(kWallBinM, len / bins);
   }
   for (const PostBeam& b : run.post_beams) {
     const PostPose& q = run.post[static_cast<std::size_t>(b.post)];
@@ -102,13 +122,14 @@ MapMisfit mapMisfit(const En& en, const typename En::RunOut& run, double cell_m)
     const double hx = bh.hx, hy = bh.hy;
     const auto& w = log.walls[static_cast<std::size_t>(bh.wall)];
     if (std::hypot(hx - w.x1, hy - w.y1) < kCornerM || std::hypot(hx - w.x2, hy - w.y2) < kCornerM) continue;
-    const int cx = static_cast<int>(std::floor((hx - m.x0) / cell_m)), cy = static_cast<int>(std::floor((hy - m.y0) / cell_m));
-    if (cx < 0 || cy < 0 || cx >= m.nx || cy >= m.ny) continue;
+    const double fx = std::floor((hx - m.x0) / cell_m), fy = std::floor((hy - m.y0) / cell_m);
+    if (!(fx >= 0 && fy >= 0 && fx < m.nx && fy < m.ny)) continue;  // off the grid, or not a number
+    const int cx = static_cast<int>(fx), cy = static_cast<int>(fy);
     const double z = std::clamp(b.nu / sigma, -kClipZ, kClipZ);
     {  // along the wall: the hit's distance from the wall's first end
       auto& bins = m.walls[static_cast<std::size_t>(bh.wall)];
-      const double along = std::hypot(hx - w.x1, hy - w.y1);
-      const std::size_t k = std::min(bins.size() - 1, static_cast<std::size_t>(along / kWallBinM));
+      const double along = std::hypot(hx - w.x1, hy - w.y1) / m.wall_bin_m[static_cast<std::size_t>(bh.wall)];
+      const std::size_t k = along < double(bins.size()) ? static_cast<std::size_t>(along) : bins.size() - 1;
       ++bins[k].count;
       bins[k].sum += std::clamp(b.nu / sigma, -kClipZ, kClipZ);
     }
@@ -372,13 +393,14 @@ json mapMisfitJson(const MapMisfit& m, const std::string& grid_csv) {
     json bins = json::array();
     for (std::size_t k = 0; k < m.walls[i].size(); ++k) {
       const auto& b = m.walls[i][k];
-      bins.push_back({{"from_m", double(k) * kWallBinM},
+      bins.push_back({{"from_m", double(k) * m.wall_bin_m[i]},
                       {"count", b.count},
                       {"mean_norm", b.count > 0 ? json(b.sum / double(b.count)) : json(nullptr)}});
     }
-    walls.push_back({{"wall", i}, {"bins", bins}});
+    walls.push_back({{"wall", i}, {"bin_m", m.wall_bin_m[i]}, {"bins", bins}});
   }
   json j = {{"cell_m", m.cell_m},
+            {"cell_asked_m", m.cell_asked_m},
             {"wall_bin_m", kWallBinM},
             {"walls", walls},
             {"grid", {{"x0", m.x0}, {"y0", m.y0}, {"nx", m.nx}, {"ny", m.ny}}},
@@ -387,6 +409,7 @@ json mapMisfitJson(const MapMisfit& m, const std::string& grid_csv) {
             {"family_alpha", kFamilyAlpha},
             {"regions", regions},
             {"grid_csv", grid_csv}};
+  if (!m.grid_note.empty()) j["grid_note"] = m.grid_note;
   if (m.tested == 0) j["note"] = "no cell with enough beams: nothing tested (a log without laser has no beam)";
   return j;
 }

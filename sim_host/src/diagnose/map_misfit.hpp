@@ -35,9 +35,11 @@ struct MapRegion {
 };
 
 struct MapMisfit {
-  double cell_m = 0.25;
+  double cell_m = 0.25;            ///< the grid's cell: as asked, or wider on a map too large for it
+  double cell_asked_m = 0.25;
   double x0 = 0, y0 = 0;  ///< grid origin
   int nx = 0, ny = 0;
+  std::string grid_note;           ///< why the grid is wider than asked, or why there is none ("": neither)
   std::vector<long> count;         ///< beams per cell
   std::vector<double> mean, rms;   ///< normalised residual per cell
   std::vector<double> t;           ///< per-cell t over scans (NaN: not tested)
@@ -47,16 +49,23 @@ struct MapMisfit {
   /// Per beam of the run (scan * beams + beam): its predicted hit falls in a region.
   std::vector<std::uint8_t> in_region;
   /// Per map wall, the same residuals in bins of kWallBinM along its length (from its
-  /// first end): count and mean normalised residual.
+  /// first end; a wall longer than kMaxWallBins bins has longer bins): count and mean
+  /// normalised residual.
   struct WallBin {
     long count = 0;
     double sum = 0;
   };
   std::vector<std::vector<WallBin>> walls;
+  std::vector<double> wall_bin_m;  ///< per wall, its bins' length (m)
 };
 
 /// Bin length along a wall (m).
 constexpr double kWallBinM = 0.5;
+/// The most bins along one wall (2 km at kWallBinM).
+constexpr int kMaxWallBins = 4096;
+/// The most cells of the residual grid: a map wider than that at the asked cell (256 m
+/// square at 0.25 m) gets wider cells, and the JSON says so.
+constexpr double kMaxGridCells = 1048576.0;
 
 /// Where beam `beam` of `laser` ends on `map` from the robot pose (x, y, theta), as the
 /// filter casts it (mount offset and yaw included): the laser's position (lx, ly), the
