@@ -15,6 +15,8 @@ using odoerr::sim::diag::forwardSelect;
 using odoerr::sim::diag::scanChange;
 using odoerr::sim::diag::SelectOptions;
 using odoerr::sim::diag::Selection;
+using odoerr::sim::diag::foldOfTime;
+using odoerr::sim::diag::TimeClusters;
 
 namespace {
 
@@ -150,4 +152,24 @@ TEST(DiagnoseRegression, MinDetectableCoefIsSelectedAtAboutItsPower) {
   EXPECT_GE(kept_full, 65);
   EXPECT_LE(kept_full, 95);
   EXPECT_LE(kept_half, 20);
+}
+
+TEST(DiagnoseRegression, FoldsAndClustersFollowTheRowsNotTheTimeTheySpan) {
+  // Folds: 2 s blocks modulo 4, the same for any time a double holds.
+  EXPECT_EQ(foldOfTime(0.0, 2.0, 4), 0);
+  EXPECT_EQ(foldOfTime(3.9, 2.0, 4), 1);
+  EXPECT_EQ(foldOfTime(14.0, 2.0, 4), 3);
+  EXPECT_EQ(foldOfTime(2.0 * (4.0 * 1e12 + 2.0), 2.0, 4), 2);  // far beyond an int's range
+  EXPECT_EQ(foldOfTime(1e300, 2.0, 4), 0);                      // 5e299 blocks: a multiple of 4 in a double
+  EXPECT_EQ(foldOfTime(-1.0, 2.0, 4), 0);
+  EXPECT_EQ(foldOfTime(std::nan(""), 2.0, 4), 0);
+  // Clusters: 5 s stretches that hold rows, numbered in time order; rows 70 days apart are
+  // in consecutive clusters, not 10^6 apart; the warm-up's empty stretches number nothing.
+  TimeClusters c(5.0);
+  EXPECT_EQ(c(10.2), 0);
+  EXPECT_EQ(c(12.0), 0);
+  EXPECT_EQ(c(15.1), 1);
+  EXPECT_EQ(c(6010000.0), 2);
+  EXPECT_EQ(c(6010004.0), 2);
+  EXPECT_EQ(c(1e300), 3);
 }

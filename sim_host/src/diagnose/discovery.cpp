@@ -468,14 +468,15 @@ Residuals Discovery<En>::analyse(const RunOut& run, Scales* scales) const {
   dm.x.resize(rows, nt);
   dm.y.resize(rows);
   dm.t.resize(rows);
+  TimeClusters motion_cluster(kClusterS);
   for (std::size_t i = 0; i < segs.size(); ++i) {
-    const int block = static_cast<int>((segs[i].tm - t0) / kCvBlockS), cl = static_cast<int>((segs[i].tm - t0) / kClusterS);
+    const int fold = foldOfTime(segs[i].tm - t0, kCvBlockS, dm.folds), cl = motion_cluster(segs[i].tm - t0);
     for (int c = 0; c < 3; ++c) {
       const Eigen::Index r = static_cast<Eigen::Index>(i) * 3 + c;
       dm.y[r] = segs[i].r[c] / own.motion[c];
       dm.x.row(r) = segs[i].a.row(c) / own.motion[c];
       dm.t[r] = segs[i].t;
-      dm.fold.push_back(block % dm.folds);
+      dm.fold.push_back(fold);
       dm.cluster.push_back(cl);
     }
   }
@@ -490,7 +491,7 @@ Residuals Discovery<En>::analyse(const RunOut& run, Scales* scales) const {
   st.weight = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(segs.size()));
   for (std::size_t i = 0; i < segs.size(); ++i) {
     const auto k = static_cast<Eigen::Index>(i);
-    st.fold.push_back(static_cast<int>((segs[i].tm - t0) / kCvBlockS) % dm.folds);
+    st.fold.push_back(foldOfTime(segs[i].tm - t0, kCvBlockS, dm.folds));
     if (segs[i].state.size() != nsv || segs[i].travel < 0.05) continue;
     st.state.row(k) = segs[i].state.transpose();
     st.response.row(k) = segs[i].per_m.transpose();
@@ -521,6 +522,7 @@ Residuals Discovery<En>::analyse(const RunOut& run, Scales* scales) const {
   db.x.resize(static_cast<Eigen::Index>(kept.size()), nb);
   db.y.resize(static_cast<Eigen::Index>(kept.size()));
   db.t.resize(static_cast<Eigen::Index>(kept.size()));
+  TimeClusters beam_cluster(kClusterS);
   for (std::size_t i = 0; i < kept.size(); ++i) {
     const Eigen::Index r = static_cast<Eigen::Index>(i);
     const PostPose& q = post[static_cast<std::size_t>(kept[i].first->post)];
@@ -530,8 +532,8 @@ Residuals Discovery<En>::analyse(const RunOut& run, Scales* scales) const {
       db.x(r, j) = (tm.kind == Term::Kind::kTime ? q.t - t0 : effects::beamFeature(tm.bf, kept[i].second)) / own.beam;
     }
     db.t[r] = q.t;
-    db.fold.push_back(static_cast<int>((q.t - t0) / kCvBlockS) % db.folds);
-    db.cluster.push_back(static_cast<int>((q.t - t0) / kClusterS));
+    db.fold.push_back(foldOfTime(q.t - t0, kCvBlockS, db.folds));
+    db.cluster.push_back(beam_cluster(q.t - t0));
   }
   out.beams = static_cast<long>(kept.size());
   if (scales != nullptr && !(scales->motion[0] > 0)) *scales = own;

@@ -130,6 +130,20 @@ void fillFit(const Design& d, const Folds& f, Selection* s) {
 
 }  // namespace
 
+int foldOfTime(double t, double block_s, int folds) {
+  const double b = std::floor(t / block_s);
+  return folds > 0 && std::isfinite(b) && b >= 0 ? static_cast<int>(std::fmod(b, double(folds))) : 0;
+}
+
+int TimeClusters::operator()(double t) {
+  const double g = std::floor(t / stretch_s_);
+  if (n_ == 0 || g > last_) {
+    last_ = g;
+    ++n_;
+  }
+  return n_ - 1;
+}
+
 double crossValidatedSse(const Design& d, const std::vector<int>& terms) {
   return cvSse(gramsOf(d), columnsOf(d, terms));
 }

@@ -43,6 +43,25 @@ struct Selection {
   double explained() const { return sse_cv_nuisance > 0 ? 1.0 - sse_cv / sse_cv_nuisance : 0.0; }
 };
 
+/// The cross-validation fold of a row `t` s after the start: its block of `block_s`, modulo
+/// `folds` (in floating point, so any time is safe; before the start or not a number: 0).
+int foldOfTime(double t, double block_s, int folds);
+
+/// The clusters of rows that come in time order: the stretches of `stretch_s` (from the
+/// start) that hold a row, numbered 0, 1, ... in time order. A pause in the log makes no empty
+/// cluster, so the robust fits and the change-point scan cost what the rows do, and count
+/// the clusters that hold data, whatever time the rows span.
+class TimeClusters {
+ public:
+  explicit TimeClusters(double stretch_s) : stretch_s_(stretch_s) {}
+  /// The cluster of the next row, `t` s after the start (t not before the previous row's).
+  int operator()(double t);
+
+ private:
+  double stretch_s_, last_ = 0;
+  int n_ = 0;
+};
+
 /// Forward selection: at each step the candidate that lowers the cross-validated SSE most,
 /// kept when its cluster-robust z and its gain pass the thresholds.
 Selection forwardSelect(const Design& d, const SelectOptions& opt);
