@@ -131,7 +131,7 @@ MapMisfit mapMisfit(const En& en, const typename En::RunOut& run, double cell_m)
       const double along = std::hypot(hx - w.x1, hy - w.y1) / m.wall_bin_m[static_cast<std::size_t>(bh.wall)];
       const std::size_t k = along < double(bins.size()) ? static_cast<std::size_t>(along) : bins.size() - 1;
       ++bins[k].count;
-      bins[k].sum += std::clamp(b.nu / sigma, -kClipZ, kClipZ);
+      bins[k].sum += z;
     }
     const double rm = bh.range + b.nu;
     hits.push_back({cy * m.nx + cx, b.post, static_cast<long>(ev.scan) * nbeams + b.beam, z, bh.lx + rm * bh.ux,
