@@ -60,7 +60,13 @@ inline std::string checkPipeline(const std::string& text, const std::string& fil
     if (!std::isfinite(sum.pose_rmse_m) || !std::isfinite(sum.heading_rmse_rad)) return "replay: RMSE not finite";
     for (const ReplayParam& p : sum.params)
       if (!std::isfinite(p.value) || !std::isfinite(p.sigma)) return "replay: parameter " + p.name + " not finite";
-    if (sum.scans_late > sum.scans || sum.poses_late > sum.poses) return "replay: more late records than records";
+    // Every scan and pose fix read is fused or counted late (stamped before the filter's
+    // time), all of them unless replay stopped at a loss. Late ones may outnumber fused ones
+    // (a log whose only scan precedes its first encoder record).
+    const std::size_t scans_seen = sum.scans + sum.scans_late, poses_seen = sum.poses + sum.poses_late;
+    if (sum.stopped_when_lost ? (scans_seen > log.scans.size() || poses_seen > log.poses.size())
+                              : (scans_seen != log.scans.size() || poses_seen != log.poses.size()))
+      return "replay: fused and late records do not add up to the log's";
   }
   if (!diagnose) return "";
   DiagnoseOptions d;

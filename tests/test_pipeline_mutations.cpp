@@ -212,3 +212,37 @@ TEST(PipelineMutations, AMapTooLargeForTheResidualGridWidensItsCells) {
   EXPECT_NE(huge["map_misfit"]["grid_note"].get<std::string>().find("no grid"), std::string::npos);
   EXPECT_EQ(huge["map_misfit"]["grid"]["nx"], 0);
 }
+
+TEST(PipelineMutations, AScanBeforeTheFirstEncoderRecordIsCountedLateNotFused) {
+  // The fuzzer's input: the log's only scan stamped before its first encoder record. The
+  // filter starts at the first encoder record, so the scan is dropped and counted late: one
+  // late, none fused, and the two add up to the log's scans.
+  std::vector<std::string> lines = splitLines(test::simulatedLog(34, 40));
+  const std::size_t first_scan = lineOf(lines, "scan", 0);
+  ASSERT_LT(first_scan, lines.size() - 1);
+  std::vector<std::string> kept;
+  std::size_t scans = 0;
+  for (std::size_t i = 0; i < lines.size(); ++i) {
+    const bool is_scan = lines[i].rfind("scan ", 0) == 0, is_enc = lines[i].rfind("enc ", 0) == 0;
+    if (is_scan && scans++ > 0) continue;     // the first scan only
+    if (is_enc && i < first_scan) continue;   // no encoder record before it
+    kept.push_back(lines[i]);
+  }
+  // Its stamp before the first encoder record left.
+  const std::size_t e = lineOf(kept, "enc", 0), s = lineOf(kept, "scan", 0);
+  std::vector<std::string> w = words(kept[s]);
+  ASSERT_GE(w.size(), 3u);
+  w[1] = std::to_string(std::stod(words(kept[e])[1]) - 0.01);
+  kept[s] = unwords(w);
+  Odolog log;
+  std::string error;
+  ASSERT_TRUE(parseOdolog(joinLines(kept), "early.odolog", &log, &error)) << error;
+  ASSERT_EQ(log.scans.size(), 1u);
+  ReplayOptions ro;
+  ro.out_dir = test::tempDir("pipeline-early");
+  ReplaySummary sum;
+  ASSERT_TRUE(replayOdolog(log, ro, &sum, &error)) << error;
+  EXPECT_EQ(sum.scans, 0u);
+  EXPECT_EQ(sum.scans_late, 1u);
+  EXPECT_EQ(test::checkPipeline(joinLines(kept), "early.odolog", ro.out_dir, true), "");
+}
