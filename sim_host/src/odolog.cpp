@@ -100,12 +100,9 @@ bool isHeader(const std::string& t) {
 }
 bool isData(const std::string& t) { return t == "enc" || t == "scan" || t == "pose" || t == "truth"; }
 
-// The plausibility rule (docs/odolog.md, "Plausibility"), the firmware encoder driver's
-// on the host: an increment of a channel beyond its fastest count times the interval, plus
-// a margin, is rejected and recorded; it contributes nothing, and the channel's later counts
-// are shifted by it. A difference or a shifted count that would leave the 64-bit range is
-// rejected the same way, so no difference the tools take can overflow.
-void rejectImpossibleIncrements(Odolog* log) {
+// The plausibility rule's fastest counts (docs/odolog.md, "Plausibility"): each channel's
+// ticks per second from the drive's constants and its top speed.
+void setEncoderLimits(Odolog* log) {
   const bool sync = log->drive == "sync";
   const DriveConstants c = driveConstants(*log, sync);
   OdologLimits& L = log->enc_limits;
@@ -122,6 +119,15 @@ void rejectImpossibleIncrements(Odolog* log) {
   L.margin_ticks = kEncMarginTicks;
   for (const auto& [k, v] : log->meta)
     if (k == "time_base" && v == "order") L.synthetic_time = true;
+}
+
+// The plausibility rule, the firmware encoder driver's on the host: an increment of a channel
+// beyond its fastest count times the interval, plus a margin, is rejected and recorded; it
+// contributes nothing, and the channel's later counts are shifted by it. A difference or a
+// shifted count that would leave the 64-bit range is rejected the same way, so no difference
+// the tools take can overflow. The limits are setEncoderLimits' and finite.
+void rejectImpossibleIncrements(Odolog* log) {
+  OdologLimits& L = log->enc_limits;
   std::vector<OdologEnc>& e = log->enc;
   if (e.size() < 2) return;
   auto median = [](std::vector<double> v) {
@@ -316,6 +322,14 @@ bool parseOdolog(const std::string& text, const std::string& name, Odolog* out, 
   }
   for (const char* r : {"max_speed_mps", "max_steer_rate_radps"}) {
     if (out->hasParam(r) && !(out->param(r, 0) > 0)) return p.fail(std::string("param ") + r + " must be positive");
+  }
+  setEncoderLimits(out);
+  const OdologLimits& L = out->enc_limits;
+  if (!std::isfinite(L.ticks_per_s_a) || !std::isfinite(L.ticks_per_s_b)) {
+    char buf[160];
+    std::snprintf(buf, sizeof buf, "the drive's constants give no finite count rate at its top speed (A: %g, B: %g ticks/s)",
+                  L.ticks_per_s_a, L.ticks_per_s_b);
+    return p.fail(buf);
   }
   rejectImpossibleIncrements(out);
   return true;
