@@ -1,8 +1,12 @@
 """Self-check of the per-wheel and out-of-catalogue forms, in-process (check_odosim.py runs
-it): open-loop drives without the 1 Hz steering correction, so the encoder counts are the same
-with and without the effect; motion checks on noise-free drives, where the truth gives each
-cycle's wheel travels exactly. Each form's formula is recovered from the truth by code written
-here."""
+it), on open-loop drives without the 1 Hz steering correction, so the encoder counts are the
+same with and without the effect; motion checks on noise-free drives, where the truth gives
+each cycle's wheel travels exactly. Each form's formula is recovered from the truth by code
+written here, e.g. wheel_backlash loses exactly b per own-wheel reversal (end to end and on a
+scripted sequence where one wheel reverses alone), ooc_world_drift displaces the truth by
+(cx, cy) |travel| in the world frame, ooc_abrupt_scale starts at t_c, the incidence bias is
+zero at normal incidence and c (1/cos 40 deg - 1) at 40 degrees; a measurement form leaves
+the encoders, truth and range noise of the same seed unchanged."""
 
 import math
 

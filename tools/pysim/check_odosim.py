@@ -1,6 +1,6 @@
 #!/usr/bin/python3
-"""Self-check of odosim.py: generate drives, re-read them with a minimal odolog v1 parser
-written here, and verify them.
+"""Self-check of odosim.py: generate drives, re-read them with a minimal odolog v1 parser of its
+own (check_base.py), and verify them.
 
     python3 tools/pysim/check_odosim.py
 
@@ -15,26 +15,13 @@ Checks
     range residuals are centred on the injected bias;
   * the CLI refuses an unknown effect and a wrong value count with exit status 2, and a
     per-wheel effect on the sync drive;
-  * per-wheel and out-of-catalogue forms (in-process, on open-loop drives without the
-    1 Hz steering correction, so the encoder counts are the same with and without the
-    effect; motion checks on noise-free drives, where the truth gives each cycle's wheel
-    travels exactly): each form's formula is recovered from the truth by code written
-    here, e.g. wheel_backlash loses exactly b per own-wheel reversal (end to end and on a
-    scripted sequence where one wheel reverses alone), ooc_world_drift displaces the truth
-    by (cx, cy) |travel| in the world frame, ooc_abrupt_scale starts at t_c, the incidence
-    bias is zero at normal incidence and c (1/cos 40 deg - 1) at 40 degrees; a measurement form
-    leaves the encoders, truth and range noise of the same seed unchanged.
-  * map errors (--map-error, on a 1-minute drive against the clean drive of the same seed):
-    the objects (a cabinet against a wall and a pillar in the open) are absent from the
-    wall records, the beams that differ from the clean drive are exactly those whose ray
-    cast (this file's) meets an object first, each shorter by the ray cast's difference;
-    the phantom is the last wall record and no measured range ends on it; the shifted
-    wall record is the real wall moved exactly d along its left normal, the other records
-    unchanged; encoders and truth are those of the clean drive; the CLI refuses an
-    object on the path, bad values and counts, an unknown kind with exit status 2, and
-    --list-map-errors lists the three kinds.
+  * per-wheel and out-of-catalogue forms: each form's formula recovered from the truth
+    (check_forms.py says how);
+  * map errors (--map-error): objects, a phantom and a shifted wall, each where its
+    definition puts it (check_map_errors.py says how); the CLI refuses bad map errors with
+    exit status 2, and --list-map-errors lists the three kinds.
 Exits 1 with a message naming each failed check. The rooms: check_base.py (the tally, the
-reader, the ray cast), check_forms.py (the forms, in-process), check_map_errors.py.
+reader, the ray cast), check_forms.py, check_map_errors.py.
 """
 
 import math
