@@ -3,6 +3,8 @@
 // case in tests/odolog/, run through odoerr replay).
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include "odoerr/sim/odolog.hpp"
 #include "odoerr/sim/odolog_writer.hpp"
 #include "odoerr/sim/runner.hpp"
@@ -83,6 +85,28 @@ TEST(OdologReader, EveryRuleIsEnforcedWithItsLine) {
     const std::string err = parseError(c.text);
     EXPECT_EQ(err.rfind(c.expect, 0), 0u) << "got: " << err << "\nexpected: " << c.expect;
   }
+}
+
+// Rule R34: a pose's X and Y reach to just under 2^46 m (where doubles are still finer than
+// the 1 cm cycle); at 2^46 m and beyond, in either sign, the field is refused with its line.
+// THETA is any finite angle.
+TEST(OdologReader, PoseCoordinatesReachTo2To46Metres) {
+  const std::string h = kHeader;  // 9 lines
+  const std::string under = "70368744177663.9";  // 2^46 - 0.1 m
+  Odolog log;
+  std::string err;
+  ASSERT_TRUE(parseOdolog(h + "enc 0 0 0\ntruth 0 " + under + " -" + under + " 1e300\npose 0 -" + under + " " +
+                              under + " 0 1 1 1\n",
+                          "t.odolog", &log, &err))
+      << err;
+  EXPECT_LT(std::fabs(log.truth[0].x), kPoseReachM);
+  const std::string at = "70368744177664";  // 2^46 m
+  EXPECT_EQ(parseError(h + "truth 0 0 -" + at + " 0\n"),
+            "t.odolog:10: truth y: -" + at +
+                " m is beyond +-2^46 m (7.04e13 m), where doubles are coarser than the 1 cm travel cycle");
+  EXPECT_EQ(parseError(h + "pose 0 " + at + " 0 0 1 1 1\n").rfind("t.odolog:10: pose x: " + at, 0), 0u);
+  const std::string far_init = std::string(kHeader).replace(h.find("init 5.0"), 8, "init 1e20");
+  EXPECT_EQ(parseError(far_init).rfind("t.odolog:9: init x: 1e20 m is beyond", 0), 0u);
 }
 
 // The plausibility rule (docs/odolog.md, "Plausibility"): the header's wheel makes 13,038

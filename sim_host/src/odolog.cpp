@@ -58,6 +58,13 @@ struct Parser {
     return true;
   }
 
+  /// A pose's X or Y (init, pose, truth), already read: within kPoseReachM (rule R34).
+  bool withinReach(const std::string& tok, const char* what, double v) {
+    if (std::fabs(v) < kPoseReachM) return true;
+    return fail(std::string(what) + ": " + tok +
+                " m is beyond +-2^46 m (7.04e13 m), where doubles are coarser than the 1 cm travel cycle");
+  }
+
   bool integer(const std::string& tok, const char* what, std::int64_t* out) {
     char* end = nullptr;
     errno = 0;
@@ -245,6 +252,7 @@ bool parseOdolog(const std::string& text, const std::string& name, Odolog* out, 
           if (!p.number(f[1 + i], "init field", false, dst[i])) return false;
         }
         if (!(q.sx > 0 && q.sy > 0 && q.stheta > 0)) return p.fail("init standard deviations must be positive");
+        if (!p.withinReach(f[1], "init x", q.x) || !p.withinReach(f[2], "init y", q.y)) return false;
         out->has_init = true;
       } else {  // meta
         if (f.size() < 2) return p.fail("'meta' takes KEY VALUE...");
@@ -292,12 +300,14 @@ bool parseOdolog(const std::string& text, const std::string& name, Odolog* out, 
           if (!p.number(f[2 + i], "pose field", false, dst[i])) return false;
         }
         if (!(q.sx > 0 && q.sy > 0 && q.stheta > 0)) return p.fail("pose standard deviations must be positive");
+        if (!p.withinReach(f[2], "pose x", q.x) || !p.withinReach(f[3], "pose y", q.y)) return false;
         out->poses.push_back(q);
       } else {  // truth
         if (!p.count(f, 4, "T X Y THETA")) return false;
         OdologTruth q{t, 0, 0, 0};
         if (!p.number(f[2], "truth x", false, &q.x) || !p.number(f[3], "truth y", false, &q.y) ||
-            !p.number(f[4], "truth theta", false, &q.theta)) {
+            !p.number(f[4], "truth theta", false, &q.theta) || !p.withinReach(f[2], "truth x", q.x) ||
+            !p.withinReach(f[3], "truth y", q.y)) {
           return false;
         }
         out->truth.push_back(q);

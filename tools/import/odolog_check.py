@@ -18,7 +18,8 @@ Format checks (every file):
   each param NAME once, a finite number; the drive's required params present and > 0;
 - field counts per record type: laser 8, wall 4, init 6, enc 3, scan 1 + N (N from
   laser), pose 7, truth 4, meta >= 1; numbers finite (nan only as a scan range); enc
-  counts signed 64-bit integers; init / pose sigmas > 0;
+  counts signed 64-bit integers; init / pose sigmas > 0; init / pose / truth X and Y
+  less than 2^46 m in size;
 - data records in non-decreasing time;
 - enc counts cumulative: the first enc record is `0 0` (counts since the start of the
   log; --any-enc-start relaxes this for logs that start mid-count);
@@ -69,6 +70,14 @@ REQUIRED = {"diff": ("wheel_radius_m", "ticks_per_rev", "wheelbase_m"),
 NUM = re.compile(r"^[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?$")
 INT = re.compile(r"^[+-]?\d+$")
 WORD = re.compile(r"^[a-z0-9_]+$")
+
+
+# Rule R34 of docs/odolog.md: a pose's X and Y are less than 2^46 m in size.
+REACH_M = 2.0 ** 46
+
+
+def within_reach(xy):
+    return all(abs(c) < REACH_M for c in xy)
 
 
 class Fail(Exception):
@@ -202,6 +211,8 @@ def check_format(path, any_enc_start, keep_scans=False):
                     err(no, "init field not a finite number")
                 elif not all(s > 0 for s in v[3:]):
                     err(no, "init sigmas must be positive")
+                elif not within_reach(v[0:2]):
+                    err(no, "init X or Y beyond 2^46 m")
                 elif log.init is not None:
                     err(no, "init given twice")
                 else:
@@ -256,6 +267,8 @@ def check_format(path, any_enc_start, keep_scans=False):
                     err(no, "pose field not a finite number")
                 elif not all(s > 0 for s in v[4:]):
                     err(no, "pose sigmas must be positive")
+                elif not within_reach(v[1:3]):
+                    err(no, "pose X or Y beyond 2^46 m")
                 else:
                     log.order.append(("pose", len(log.pose)))
                     log.pose.append(tuple(v) + (no,))
@@ -265,6 +278,8 @@ def check_format(path, any_enc_start, keep_scans=False):
                     err(no, f"truth takes 4 fields, got {len(args)}")
                 elif None in v:
                     err(no, "truth field not a finite number")
+                elif not within_reach(v[1:3]):
+                    err(no, "truth X or Y beyond 2^46 m")
                 else:
                     log.order.append(("truth", len(log.truth)))
                     log.truth.append(tuple(v) + (no,))

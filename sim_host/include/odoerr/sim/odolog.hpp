@@ -158,6 +158,10 @@ inline constexpr double kDefaultMaxSpeedMps = 5.0;
 inline constexpr double kDefaultMaxSteerRateRadps = 10.0;
 inline constexpr double kEncMarginTicks = 16.0;
 inline constexpr double kSyntheticFactor = 100.0;
+/// The reach of a pose's X and Y (`init`, `pose`, `truth`; docs/odolog.md, rule R34): 2^46 m,
+/// 7.04 x 10^13 m. Below it doubles are at most 2^-7 m apart, finer than the 1 cm travel
+/// cycle; beyond it a coordinate is a damaged field, and its square could overflow.
+inline constexpr double kPoseReachM = 70368744177664.0;
 
 /// One line for a printed summary: "" when nothing was rejected, else e.g.
 /// "2 encoder increments rejected as impossible (the first at LOG:57, t=12.30 s, channel A:
