@@ -18,6 +18,8 @@ NUMBER_RE = re.compile(r"^[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?$")
 # the repository, tests/data (the same layout), when the sample has it.
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 SAMPLE_DIR = os.path.join(ROOT, "tests", "data")
+# The OptiOdom data set's path types (its folders), in the order the reports list them.
+OPTIODOM_PATH_TYPES = ("circular", "square", "ivanjko")
 
 
 def data_dir():

@@ -171,7 +171,7 @@ def main():
             print("skipped: --quick needs %s (absent)" % ", ".join(missing))
             return 77
     else:
-        runs = {t: sorted(glob.glob(os.path.join(data, t, "*", "*_run-*.csv"))) for t in ("circular", "square", "ivanjko")}
+        runs = {t: sorted(glob.glob(os.path.join(data, t, "*", "*_run-*.csv"))) for t in import_common.OPTIODOM_PATH_TYPES}
     jitter = mocapJitter(runs["square"])
     if a.fix_sigma_xy == "auto":
         a.fix_sigma_xy = "%.6f" % jitter[0]
