@@ -77,6 +77,15 @@ def rng(xs, fmt):
     return ("%s to %s" % (fmt % min(xs), fmt % max(xs))) if xs else "n/a"
 
 
+def by_type_and_motion(runs):
+    """(path type, motion, its runs) for each pair that has runs, in the tables' order."""
+    for pt in PATH_TYPES:
+        for motion in ("turning", "straight", "rotation"):
+            rs = [r for r in runs if r["path_type"] == pt and r["motion"] == motion]
+            if rs:
+                yield pt, motion, rs
+
+
 def tables_md(runs, cross, backlash=()):
     L = []
     # 1. Per path type.
@@ -85,28 +94,24 @@ def tables_md(runs, cross, backlash=()):
              "| first step pose z (median, range) | held-out pose RMSE before → after (median, mm) "
              "| change points (the scan needs 40 residual segments) |")
     L.append("|---|---|---|---|---|---|---|---|---|")
-    for pt in PATH_TYPES:
-        for motion in ("turning", "straight", "rotation"):
-            rs = [r for r in runs if r["path_type"] == pt and r["motion"] == motion]
-            if not rs:
-                continue
-            seg = [r for r in rs if (r["segments"] or 0) > 0]
-            found = [r for r in rs if r["features"]]
-            kept = [r for r in rs if r["auto_steps"]]
-            z1 = [r["auto_steps"][0]["pose_z"] for r in kept]
-            b = [1e3 * r["auto_steps"][0]["pose_rmse_before_m"] for r in kept
-                 if r["auto_steps"][0]["pose_rmse_before_m"] is not None]
-            a = [1e3 * r["auto_steps"][-1]["pose_rmse_after_m"] for r in kept
-                 if r["auto_steps"][-1]["pose_rmse_after_m"] is not None]
-            cps = sum(len(r["change_points"]) for r in rs)
-            scanned = sum(1 for r in rs if (r["segments"] or 0) >= 40)  # the scan needs 40 segments
-            cp_txt = (str(cps) if cps else "none found") + (" (%d runs scanned)" % scanned) if scanned else \
-                "not scanned (under 40 segments)"
-            L.append("| %s | %d | %s, %s s, %s m | %d | %d | %d | %s | %s → %s | %s |" % (
-                pt, len(rs), motion, rng([r["duration_s"] for r in rs], "%.0f"),
-                rng([r["travel_m"] for r in rs], "%.2f"), len(seg), len(found), len(kept),
-                ("%s (%s)" % (med(z1, "%.1f"), rng(z1, "%.1f"))) if z1 else "no step kept",
-                med(b, "%.1f") if b else "—", med(a, "%.1f") if a else "—", cp_txt))
+    for pt, motion, rs in by_type_and_motion(runs):
+        seg = [r for r in rs if (r["segments"] or 0) > 0]
+        found = [r for r in rs if r["features"]]
+        kept = [r for r in rs if r["auto_steps"]]
+        z1 = [r["auto_steps"][0]["pose_z"] for r in kept]
+        b = [1e3 * r["auto_steps"][0]["pose_rmse_before_m"] for r in kept
+             if r["auto_steps"][0]["pose_rmse_before_m"] is not None]
+        a = [1e3 * r["auto_steps"][-1]["pose_rmse_after_m"] for r in kept
+             if r["auto_steps"][-1]["pose_rmse_after_m"] is not None]
+        cps = sum(len(r["change_points"]) for r in rs)
+        scanned = sum(1 for r in rs if (r["segments"] or 0) >= 40)  # the scan needs 40 segments
+        cp_txt = (str(cps) if cps else "none found") + (" (%d runs scanned)" % scanned) if scanned else \
+            "not scanned (under 40 segments)"
+        L.append("| %s | %d | %s, %s s, %s m | %d | %d | %d | %s | %s → %s | %s |" % (
+            pt, len(rs), motion, rng([r["duration_s"] for r in rs], "%.0f"),
+            rng([r["travel_m"] for r in rs], "%.2f"), len(seg), len(found), len(kept),
+            ("%s (%s)" % (med(z1, "%.1f"), rng(z1, "%.1f"))) if z1 else "no step kept",
+            med(b, "%.1f") if b else "—", med(a, "%.1f") if a else "—", cp_txt))
     L.append("")
     # 2. Discovered features by path type.
     L.append("### What discovery found (the model's residual features, `unexplained.features`)\n")
@@ -158,16 +163,12 @@ def tables_md(runs, cross, backlash=()):
     L.append("### Drive parameters (`baseline.parameters`), median and range over the runs\n")
     L.append("| path type | motion | runs | δ_R | δ_L | δ_d |")
     L.append("|---|---|---|---|---|---|")
-    for pt in PATH_TYPES:
-        for motion in ("turning", "straight", "rotation"):
-            rs = [r for r in runs if r["path_type"] == pt and r["motion"] == motion]
-            if not rs:
-                continue
-            cells = []
-            for k in ("delta_R", "delta_L", "delta_d"):
-                v = [(r["parameters"].get(k) or {}).get("estimate") for r in rs]
-                cells.append("%s (%s)" % (med(v, "%.4f"), rng(v, "%.4f")))
-            L.append("| %s | %s | %d | %s |" % (pt, motion, len(rs), " | ".join(cells)))
+    for pt, motion, rs in by_type_and_motion(runs):
+        cells = []
+        for k in ("delta_R", "delta_L", "delta_d"):
+            v = [(r["parameters"].get(k) or {}).get("estimate") for r in rs]
+            cells.append("%s (%s)" % (med(v, "%.4f"), rng(v, "%.4f")))
+        L.append("| %s | %s | %d | %s |" % (pt, motion, len(rs), " | ".join(cells)))
     L.append("| authors' calibration (README) | | | 0.99544 | 0.99610 | 1.00192 |")
     L.append("")
     # 4. Per run.
