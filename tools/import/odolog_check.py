@@ -95,6 +95,13 @@ class Log:
         self.unknown = 0
         self.order = []   # ('enc'|'truth'|..., index) in file order
 
+    def meta_int(self, key):
+        """The integer that the first `meta KEY` record with one starts with, else None."""
+        for k, v in self.meta:
+            if k == key and v.split() and INT.match(v.split()[0]):
+                return int(v.split()[0])
+        return None
+
 
 def check_format(path, any_enc_start, keep_scans=False):
     """Parses and validates; returns (Log, [errors])."""

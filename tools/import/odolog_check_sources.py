@@ -36,9 +36,6 @@ Checks:
 
 import gzip
 import math
-import re
-
-INT = re.compile(r"^[+-]?\d+$")
 
 
 def wrap(a):
@@ -185,13 +182,6 @@ def carmen_scans(lines):
     return scans, params
 
 
-def meta_count(log, key):
-    for k, v in log.meta:
-        if k == key and v.split() and INT.match(v.split()[0]):
-            return int(v.split()[0])
-    return None
-
-
 def check_carmen(log, path, src, path_tol):
     errs, info = [], []
     if not expect_params(log, {"wheel_radius_m": 0.0825, "ticks_per_rev": 4096, "wheelbase_m": 0.33},
@@ -209,7 +199,7 @@ def check_carmen(log, path, src, path_tol):
             return errs, info
     # intervals with no raw odometry in the log: the file must say it filled them
     gaps = [k for k in range(m - 1) if not scans[k][4]]
-    declared = meta_count(log, "odometry_gaps") or 0
+    declared = log.meta_int("odometry_gaps") or 0
     if len(gaps) != declared:
         errs.append(f"{path}: {len(gaps)} intervals have no raw odometry in the log (the first: interval "
                     f"{gaps[0] if gaps else '-'}), the file declares {declared} (meta odometry_gaps)")
