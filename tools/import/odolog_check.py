@@ -98,8 +98,9 @@ class Log:
     def meta_int(self, key):
         """The integer that the first `meta KEY` record with one starts with, else None."""
         for k, v in self.meta:
-            if k == key and v.split() and INT.match(v.split()[0]):
-                return int(v.split()[0])
+            first = v.split()[:1]
+            if k == key and first and INT.match(first[0]):
+                return int(first[0])
         return None
 
 

@@ -105,8 +105,8 @@ def tables_md(runs, cross, backlash=()):
              if r["auto_steps"][-1]["pose_rmse_after_m"] is not None]
         cps = sum(len(r["change_points"]) for r in rs)
         scanned = sum(1 for r in rs if (r["segments"] or 0) >= 40)  # the scan needs 40 segments
-        cp_txt = (str(cps) if cps else "none found") + (" (%d runs scanned)" % scanned) if scanned else \
-            "not scanned (under 40 segments)"
+        cp_txt = ("%s (%d runs scanned)" % (cps or "none found", scanned) if scanned
+                  else "not scanned (under 40 segments)")
         L.append("| %s | %d | %s, %s s, %s m | %d | %d | %d | %s | %s → %s | %s |" % (
             pt, len(rs), motion, rng([r["duration_s"] for r in rs], "%.0f"),
             rng([r["travel_m"] for r in rs], "%.2f"), len(seg), len(found), len(kept),
