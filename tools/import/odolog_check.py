@@ -98,8 +98,10 @@ class Log:
     def meta_int(self, key):
         """The integer that the first `meta KEY` record with one starts with, else None."""
         for k, v in self.meta:
+            if k != key:
+                continue
             first = v.split()[:1]
-            if k == key and first and INT.match(first[0]):
+            if first and INT.match(first[0]):
                 return int(first[0])
         return None
 
